@@ -1,0 +1,58 @@
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace hw::cli {
+
+// Exit codes of every heatwave command.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;   // the job failed: bad input file, failed check, ...
+inline constexpr int kExitUsage = 2;     // bad command line or invalid options
+
+// One entry of the command table: `heatwave <name> ...` calls run(argc, argv) with argv[0]
+// set to "heatwave <name>".
+struct Command {
+  const char* name;
+  int (*run)(int argc, char** argv);
+  const char* summary;
+};
+
+// The command table, in the order `heatwave help` lists it.
+const std::vector<Command>& Commands();
+
+// Options every command has.
+struct CommonOptions {
+  bool quiet = false;  // no progress bar, no summary; errors still go to stderr
+};
+
+// Adds --quiet to `app`.
+void AddCommonOptions(CLI::App& app, CommonOptions& options);
+
+// Parses argv with `app`. Returns -1 when parsing succeeded and the command should run;
+// otherwise the exit code to return: 0 after --help, kExitUsage after a bad command line
+// (the message has been printed to stderr with a hint to use --help).
+int Parse(CLI::App& app, int argc, char** argv);
+
+// Runs `job`, turning the errors of bad inputs and outputs into one clear line on stderr
+// ("error: <path>: <reason>") and kExitFailure; a failed options Check() message passed
+// as hw::cli::UsageError gives kExitUsage. Returns job's exit code otherwise.
+int RunGuarded(const std::function<int()>& job);
+
+// Thrown by a command when its options fail their Check(): exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Throws UsageError(prefix + message) when message is not empty (an options Check()).
+void ThrowIfInvalid(const std::string& message, const std::string& prefix = "");
+
+// The commands; each parses its options and calls a typed function tests call directly.
+int RunHelp(int argc, char** argv);
+int RunVersion(int argc, char** argv);
+int RunScanInfo(int argc, char** argv);
+
+}  // namespace hw::cli

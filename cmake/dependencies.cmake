@@ -1,0 +1,21 @@
+# Every external dependency of heatwave, found in one place. All come from Debian 12
+# packages installed by scripts/install-deps.sh; README.md says why each is here.
+
+find_package(Threads REQUIRED)
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(yaml-cpp 0.7 REQUIRED)
+find_package(CLI11 2 REQUIRED)
+# aruco and ximgproc come from opencv_contrib (libopencv-contrib-dev).
+find_package(OpenCV 4.6 REQUIRED COMPONENTS core imgproc imgcodecs calib3d aruco ximgproc)
+find_package(Ceres 2.1 REQUIRED)
+find_package(Mrcal REQUIRED)
+find_package(embree 3.13 REQUIRED)
+find_package(OpenImageIO 2.4 REQUIRED)
+find_package(OpenNI2 REQUIRED)
+find_package(GTest 1.12 REQUIRED)
+
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(apriltag REQUIRED IMPORTED_TARGET apriltag>=3.3)
+pkg_check_modules(libusb REQUIRED IMPORTED_TARGET libusb-1.0>=1.0.26)
+pkg_check_modules(cairo REQUIRED IMPORTED_TARGET cairo>=1.16 cairo-pdf)
+pkg_check_modules(pangocairo REQUIRED IMPORTED_TARGET pangocairo>=1.50)

@@ -1,0 +1,89 @@
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace hw::core {
+
+// Lens models of rig.yaml (scan-format.md). kOpenCV is OpenCV's distortion model with
+// 4, 5 or 8 coefficients in OpenCV order: k1 k2 p1 p2 [k3 [k4 k5 k6]].
+enum class CameraModelType { kPinhole, kOpenCV };
+
+// "pinhole" / "opencv"; ParseCameraModelType returns nullopt for anything else.
+std::string CameraModelTypeName(CameraModelType type);
+std::optional<CameraModelType> ParseCameraModelType(const std::string& name);
+
+// Options of iterative unprojection (inverting the distortion).
+struct UndistortOptions {
+  int max_iterations = 100;        // Gauss-Newton iterations, > 0
+  double tolerance_px = 1e-10;     // stop when the reprojection error is below this (pixels), > 0
+  // Check() returns "" when valid, else a message naming the field, value and constraint.
+  std::string Check() const;
+};
+
+// An intrinsic camera model in OpenCV conventions: camera frame x right, y down, z
+// forward (metres); pixel (0, 0) is the centre of the top-left pixel, so a 640-wide
+// image has its centre at x = 319.5.
+//
+// Parameters, in this order (Params()/SetParams(), intrinsic Jacobians):
+//   fx fy cx cy  [k1 k2 p1 p2 [k3 [k4 k5 k6]]]
+struct CameraModel {
+  int width = 0;   // pixels
+  int height = 0;  // pixels
+  CameraModelType type = CameraModelType::kPinhole;
+  double fx = 0, fy = 0;  // focal lengths, pixels
+  double cx = 0, cy = 0;  // principal point, pixels
+  std::vector<double> distortion;  // empty for pinhole; 4, 5 or 8 values for opencv
+
+  // A pinhole camera with the given size and focal length, principal point at the centre.
+  static CameraModel Pinhole(int width, int height, double fx, double fy);
+
+  // "" when the model is valid, else one message naming the field, value and constraint
+  // (e.g. "fx: must be > 0, got -3"). Checked: size > 0, focal lengths > 0 and finite,
+  // principal point finite, distortion size (0 for pinhole; 4, 5 or 8 for opencv), finite.
+  std::string Check() const;
+
+  int NumParams() const { return 4 + static_cast<int>(distortion.size()); }
+  Eigen::VectorXd Params() const;
+  void SetParams(const Eigen::VectorXd& params);  // asserts the size
+
+  // Distortion on normalised coordinates (x/z, y/z): undistorted -> distorted.
+  // Optional Jacobians: d(distorted)/d(undistorted) 2x2, and d(distorted)/d(k...) 2xN.
+  Eigen::Vector2d Distort(const Eigen::Vector2d& xy_undistorted,
+                          Eigen::Matrix2d* J_xy = nullptr,
+                          Eigen::Matrix<double, 2, Eigen::Dynamic>* J_dist = nullptr) const;
+
+  // Inverse of Distort by Gauss-Newton from the undistorted guess. Returns nullopt when it
+  // does not converge to options.tolerance_px (expressed in pixels through fx, fy), which
+  // happens far outside the image where the polynomial model folds over.
+  std::optional<Eigen::Vector2d> Undistort(const Eigen::Vector2d& xy_distorted,
+                                           const UndistortOptions& options = {}) const;
+
+  // Projects a point in the camera frame (metres) to pixels. Requires z > 0 (asserted
+  // only as finite output; callers must cull points behind the camera).
+  // J_point: d(pixel)/d(point_in_camera), 2x3. J_params: d(pixel)/d(Params()), 2xNumParams.
+  Eigen::Vector2d Project(const Eigen::Vector3d& point_in_camera,
+                          Eigen::Matrix<double, 2, 3>* J_point = nullptr,
+                          Eigen::Matrix<double, 2, Eigen::Dynamic>* J_params = nullptr) const;
+
+  // Unprojects a pixel to the ray through it, as a point on the z = 1 plane of the camera
+  // frame (multiply by depth z to get the point). nullopt when undistortion fails.
+  std::optional<Eigen::Vector3d> Unproject(const Eigen::Vector2d& pixel,
+                                           const UndistortOptions& options = {}) const;
+
+  // True when the pixel lies inside the image: -0.5 <= x < width - 0.5, likewise y.
+  bool IsInImage(const Eigen::Vector2d& pixel) const;
+
+  // The same camera for an image scaled by `factor` (e.g. 0.5 for half resolution).
+  CameraModel Scaled(double factor) const;
+
+  // 3x3 matrix K.
+  Eigen::Matrix3d K() const;
+};
+
+bool operator==(const CameraModel& a, const CameraModel& b);
+
+}  // namespace hw::core

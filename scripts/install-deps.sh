@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package heatwave needs to build, test and run.
+# Idempotent and non-interactive: packages already present are left alone.
+# The README's "Dependencies" section says why each one is here.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake pkg-config ninja-build
+  # core
+  libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libcli11-dev
+  # calibrate
+  libceres-dev libmrcal-dev libapriltag-dev
+  # analyze / fixtures
+  libembree-dev libtbb-dev libopenimageio-dev
+  # Debian's OpenImageIO CMake config names these files; find_package fails without them
+  openimageio-tools python3-imath
+  # capture
+  libopenni2-dev libusb-1.0-0-dev
+  # report
+  libcairo2-dev libpango1.0-dev
+  # tests
+  libgtest-dev libgmock-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
