@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hw::core {
 
@@ -64,7 +65,8 @@ void ProgressBar::Draw(bool force) {
   }
   last_draw_ = now;
   const double rate = elapsed > 0 ? static_cast<double>(done_) / elapsed : 0.0;
-  const double eta = rate > 0 ? static_cast<double>(total_ - done_) / rate : NAN;
+  const double eta =
+      rate > 0 ? static_cast<double>(total_ - done_) / rate : std::numeric_limits<double>::quiet_NaN();
   std::string bar(kBarWidth, '.');
   std::fill_n(bar.begin(), static_cast<int>(fraction * kBarWidth), '#');
   std::fprintf(stderr, "%s%-10s [%s] %lld/%lld %3d%%  %.1f %s/s  ETA %s%s", tty_ ? "\r" : "",

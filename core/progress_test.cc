@@ -1,1 +1,54 @@
-// placeholder: being written
+#include "core/progress.h"
+
+#include <limits>
+
+#include <gtest/gtest.h>
+
+namespace hw::core {
+namespace {
+
+TEST(Progress, FormatsDurations) {
+  EXPECT_EQ(ProgressBar::FormatDuration(0), "0:00");
+  EXPECT_EQ(ProgressBar::FormatDuration(59.4), "0:59");
+  EXPECT_EQ(ProgressBar::FormatDuration(61), "1:01");
+  EXPECT_EQ(ProgressBar::FormatDuration(3725), "1:02:05");
+  EXPECT_EQ(ProgressBar::FormatDuration(-1), "--:--");
+  EXPECT_EQ(ProgressBar::FormatDuration(std::numeric_limits<double>::quiet_NaN()), "--:--");
+}
+
+TEST(Progress, DrawsRateAndEtaOnStderr) {
+  ::testing::internal::CaptureStderr();
+  {
+    ProgressBar bar("render", 10, "frames");
+    for (int i = 0; i < 10; ++i) bar.Advance();
+  }
+  const std::string out = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(out.find("render"), std::string::npos) << out;
+  EXPECT_NE(out.find("10/10"), std::string::npos) << out;
+  EXPECT_NE(out.find("100%"), std::string::npos) << out;
+  EXPECT_NE(out.find("frames/s"), std::string::npos) << out;
+  EXPECT_NE(out.find("ETA"), std::string::npos) << out;
+}
+
+TEST(Progress, QuietPrintsNothing) {
+  ::testing::internal::CaptureStderr();
+  {
+    ProgressBar bar("render", 10, "frames", /*quiet=*/true);
+    bar.Advance(10);
+  }
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+}
+
+TEST(Progress, ClampsToTotal) {
+  ::testing::internal::CaptureStderr();
+  {
+    ProgressBar bar("x", 3, "items");
+    bar.Advance(7);
+  }
+  const std::string out = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(out.find("3/3"), std::string::npos) << out;
+  EXPECT_EQ(out.find("7/3"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace hw::core
