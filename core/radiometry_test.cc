@@ -1,1 +1,412 @@
-// placeholder: being written
+#include "core/radiometry.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <utility>
+#include <vector>
+
+namespace hw::core {
+namespace {
+
+using ::testing::HasSubstr;
+using LD = long double;
+
+// ---- Independent reference: Planck's law integrated numerically in long double. ----
+
+constexpr LD kH = 6.62607015e-34L;
+constexpr LD kC = 299792458.0L;
+constexpr LD kK = 1.380649e-23L;
+constexpr LD kC1 = 2 * kH * kC * kC;
+constexpr LD kC2 = kH * kC / kK;
+constexpr LD kPiL = 3.141592653589793238462643383279502884L;
+
+// Planck spectral radiance B(lambda, T), W/(m^2 sr m), and dB/dT.
+LD Planck(LD lambda_m, LD t) {
+  return kC1 / (std::pow(lambda_m, 5) * std::expm1(kC2 / (lambda_m * t)));
+}
+LD PlanckDt(LD lambda_m, LD t) {
+  const LD x = kC2 / (lambda_m * t);
+  const LD em1 = std::expm1(x);
+  return kC1 / std::pow(lambda_m, 5) * (em1 + 1) / (em1 * em1) * x / t;
+}
+
+// Gauss-Legendre nodes/weights on [-1, 1] by Newton on P_n, in long double.
+std::vector<std::pair<LD, LD>> GaussLegendre(int n) {
+  std::vector<std::pair<LD, LD>> rule;
+  for (int i = 1; i <= n; ++i) {
+    LD x = std::cos(kPiL * (i - 0.25L) / (n + 0.5L));
+    LD dp = 0;
+    for (int iter = 0; iter < 100; ++iter) {
+      LD p0 = 1, p1 = x;
+      for (int k = 2; k <= n; ++k) {
+        const LD p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = n * (x * p1 - p0) / (x * x - 1);
+      const LD dx = p1 / dp;
+      x -= dx;
+      if (std::abs(dx) < 1e-19L) break;
+    }
+    rule.emplace_back(x, 2 / ((1 - x * x) * dp * dp));
+  }
+  return rule;
+}
+
+// Composite 20-point Gauss-Legendre over [lo, hi] micrometres with `panels` equal panels,
+// of f(lambda_m): the integrand is smooth and varies by at most e^10 per panel here, so
+// this is exact to long-double rounding.
+template <typename F>
+LD IntegrateBand(LD lo_um, LD hi_um, int panels, F f) {
+  static const std::vector<std::pair<LD, LD>> rule = GaussLegendre(20);
+  const LD lo = lo_um * 1e-6L, hi = hi_um * 1e-6L;
+  const LD width = (hi - lo) / panels;
+  LD sum = 0;
+  for (int p = 0; p < panels; ++p) {
+    const LD a = lo + p * width;
+    for (const auto& [x, w] : rule) sum += w * f(a + 0.5L * width * (x + 1));
+  }
+  return sum * 0.5L * width;
+}
+
+LD ReferenceRadiance(LD lo_um, LD hi_um, LD t) {
+  return IntegrateBand(lo_um, hi_um, 40, [t](LD l) { return Planck(l, t); });
+}
+LD ReferenceDerivative(LD lo_um, LD hi_um, LD t) {
+  return IntegrateBand(lo_um, hi_um, 40, [t](LD l) { return PlanckDt(l, t); });
+}
+
+struct Band {
+  double lo_um, hi_um;
+};
+// The rig's band, a common LWIR band, MWIR, and SWIR (deep Wien regime).
+const std::vector<Band> kBands = {{7.5, 14.0}, {8.0, 14.0}, {3.0, 5.0}, {0.9, 1.7}};
+// -40 .. 1000 °C; for 7.5-14 µm these put both ends of the band on either side of the
+// series switch and straddling it, so every branch of the band integral is exercised.
+const std::vector<double> kTemperaturesC = {-40, -20, 0, 20, 37, 100, 250, 400, 600, 800, 1000};
+
+TEST(RadiometryTest, ConstantsAreCodata2018) {
+  EXPECT_NEAR(kRadianceC1, 1.191042972e-16, 1e-25);  // CODATA c1L
+  EXPECT_NEAR(kRadianceC2, 1.438776877e-2, 1e-11);   // CODATA c2
+  EXPECT_EQ(CelsiusToKelvin(20.0), 293.15);
+  EXPECT_EQ(KelvinToCelsius(273.15), 0.0);
+}
+
+TEST(RadiometryTest, BandRadianceMatchesNumericalIntegration) {
+  double worst = 0;
+  for (const Band& band : kBands) {
+    const BandRadiance radiance(band.lo_um, band.hi_um);
+    for (const double t_c : kTemperaturesC) {
+      const double t_k = CelsiusToKelvin(t_c);
+      const LD reference = ReferenceRadiance(band.lo_um, band.hi_um, t_k);
+      const double relative = static_cast<double>(
+          std::abs((radiance.Radiance(t_k) - reference) / reference));
+      worst = std::max(worst, relative);
+      EXPECT_LT(relative, 1e-13) << band.lo_um << "-" << band.hi_um << " µm at " << t_c;
+    }
+  }
+  std::printf("band radiance vs Gauss-Legendre: max relative error %.3g\n", worst);
+}
+
+TEST(RadiometryTest, KnownValue) {
+  // 8-14 µm at 300 K: 54.93346138 W/(m^2 sr) (composite Simpson, 20000 panels, in Python),
+  // 37.6% of sigma T^4 / pi.
+  const BandRadiance band(8, 14);
+  EXPECT_NEAR(band.Radiance(300), 54.93346138, 1e-8);
+}
+
+TEST(RadiometryTest, StefanBoltzmann) {
+  const LD sigma = 2 * std::pow(kPiL, 5) * std::pow(kK, 4) / (15 * std::pow(kH, 3) * kC * kC);
+  EXPECT_NEAR(static_cast<double>(sigma), 5.670374419e-8, 1e-17);
+  // 0.1..1000 µm holds all but ~(x_lo^3/3) / (pi^4/15) of the radiance, x_lo = c2/(1000 µm T):
+  // < 1e-6 from 600 K up.
+  const BandRadiance wide(0.1, 1000);
+  for (const double t_k : {600.0, 800.0, 1000.0, 1273.15}) {
+    const double total = static_cast<double>(sigma) * std::pow(t_k, 4) / std::numbers::pi;
+    EXPECT_NEAR(wide.Radiance(t_k) / total, 1.0, 1e-6) << t_k;
+  }
+  // A band wide enough to hold everything to 1e-15 checks the whole integral exactly.
+  const BandRadiance all(1e-3, 1e9);
+  for (const double t_k : {1.0, 10.0, 77.0, 300.0, 1000.0, 5000.0}) {
+    const double total = static_cast<double>(sigma) * std::pow(t_k, 4) / std::numbers::pi;
+    EXPECT_NEAR(all.Radiance(t_k) / total, 1.0, 1e-14) << t_k;
+  }
+}
+
+TEST(RadiometryTest, DerivativeMatchesIntegralAndFiniteDifferences) {
+  double worst_integral = 0, worst_fd = 0;
+  for (const Band& band : kBands) {
+    const BandRadiance radiance(band.lo_um, band.hi_um);
+    for (const double t_c : kTemperaturesC) {
+      const double t = CelsiusToKelvin(t_c);
+      const double d = radiance.Derivative(t);
+      const LD reference = ReferenceDerivative(band.lo_um, band.hi_um, t);
+      const double rel_integral = static_cast<double>(std::abs((d - reference) / reference));
+      // 5-point central difference, h = 1e-4 T: truncation ~ (h/T)^4 x^5 / 30 < 1e-10,
+      // rounding ~ 1e-16 / 1e-4 = 1e-12.
+      const double h = 1e-4 * t;
+      const double fd = (-radiance.Radiance(t + 2 * h) + 8 * radiance.Radiance(t + h) -
+                         8 * radiance.Radiance(t - h) + radiance.Radiance(t - 2 * h)) /
+                        (12 * h);
+      const double rel_fd = std::abs((d - fd) / d);
+      worst_integral = std::max(worst_integral, rel_integral);
+      worst_fd = std::max(worst_fd, rel_fd);
+      EXPECT_LT(rel_integral, 1e-13) << band.lo_um << " " << t_c;
+      EXPECT_LT(rel_fd, 1e-9) << band.lo_um << " " << t_c;
+      double l2, d2;
+      radiance.RadianceAndDerivative(t, &l2, &d2);
+      EXPECT_EQ(l2, radiance.Radiance(t));
+      EXPECT_EQ(d2, d);
+    }
+  }
+  std::printf("dL/dT: max relative error %.3g vs integral, %.3g vs finite differences\n",
+              worst_integral, worst_fd);
+}
+
+TEST(RadiometryTest, TemperatureInvertsRadiance) {
+  double worst = 0;
+  for (const Band& band : kBands) {
+    const BandRadiance radiance(band.lo_um, band.hi_um);
+    // Fine sweep over the working range plus far outside the starting table.
+    std::vector<double> temperatures;
+    for (double t = 150; t < 2500; t *= 1.013) temperatures.push_back(t);
+    for (const double t : {60.0, 1e4, 1e5}) temperatures.push_back(t);
+    if (band.lo_um > 5) temperatures.push_back(5.0);  // L ~ 1e-50 W/(m^2 sr) in LWIR
+    for (const double t : temperatures) {
+      const double back = radiance.Temperature(radiance.Radiance(t));
+      worst = std::max(worst, std::abs(back - t) / t);
+      ASSERT_NEAR(back, t, 1e-13 * t) << band.lo_um << "-" << band.hi_um << " at " << t;
+    }
+  }
+  std::printf("Temperature(Radiance(T)): max relative error %.3g\n", worst);
+  // Absolute: 1e-9 K over -40..1000 °C in the rig's band.
+  const BandRadiance rig(7.5, 14);
+  for (const double t_c : kTemperaturesC) {
+    const double t = CelsiusToKelvin(t_c);
+    EXPECT_NEAR(rig.Temperature(rig.Radiance(t)), t, 1e-9);
+  }
+}
+
+TEST(RadiometryTest, TemperatureOfReferenceRadiance) {
+  // Against the independent integral: the inverse is right, not only self-consistent.
+  const BandRadiance band(7.5, 14);
+  for (const double t_c : {-40.0, 20.0, 500.0}) {
+    const double t = CelsiusToKelvin(t_c);
+    const double l = static_cast<double>(ReferenceRadiance(7.5, 14, t));
+    EXPECT_NEAR(band.Temperature(l), t, 1e-11);
+  }
+}
+
+TEST(RadiometryTest, EdgeValues) {
+  const BandRadiance band(7.5, 14);
+  EXPECT_EQ(band.Radiance(0), 0.0);
+  EXPECT_EQ(band.Derivative(0), 0.0);
+  EXPECT_TRUE(std::isnan(band.Radiance(-1)));
+  EXPECT_TRUE(std::isnan(band.Radiance(std::nan(""))));
+  EXPECT_TRUE(std::isnan(band.Derivative(-1)));
+  EXPECT_TRUE(std::isinf(band.Radiance(INFINITY)));
+  EXPECT_TRUE(std::isnan(band.Temperature(0)));
+  EXPECT_TRUE(std::isnan(band.Temperature(-3)));
+  EXPECT_TRUE(std::isnan(band.Temperature(std::nan(""))));
+  EXPECT_TRUE(std::isinf(band.Temperature(INFINITY)));
+  EXPECT_EQ(band.lambda_lo_um(), 7.5);
+  EXPECT_EQ(band.lambda_hi_um(), 14.0);
+  // Monotone and positive over a fine sweep (no seams at the series switch, x = 2).
+  double previous = 0;
+  for (double t = 2; t < 3000; t *= 1.001) {
+    const double l = band.Radiance(t);
+    ASSERT_GT(l, previous) << t;
+    ASSERT_GT(band.Derivative(t), 0) << t;
+    previous = l;
+  }
+}
+
+TEST(RadiometryTest, SpectralRadiance) {
+  for (const double lambda_um : {1.0, 4.0, 10.0, 100.0}) {
+    for (const double t : {250.0, 300.0, 1500.0}) {
+      const LD reference = Planck(lambda_um * 1e-6L, t) * 1e-6L;  // per µm
+      EXPECT_NEAR(SpectralRadiance(lambda_um, t) / static_cast<double>(reference), 1.0, 1e-14);
+    }
+  }
+  // Wien's displacement law: the peak is at 2897.771955 µm K / T.
+  const double t = 300;
+  const double peak_um = 2897.771955 / t;
+  EXPECT_GT(SpectralRadiance(peak_um, t), SpectralRadiance(peak_um * 1.001, t));
+  EXPECT_GT(SpectralRadiance(peak_um, t), SpectralRadiance(peak_um / 1.001, t));
+  EXPECT_EQ(SpectralRadiance(10, 0), 0.0);
+  EXPECT_TRUE(std::isnan(SpectralRadiance(10, -1)));
+}
+
+TEST(RadiometryTest, CheckSpectralBand) {
+  EXPECT_EQ(CheckSpectralBand(7.5, 14), "");
+  EXPECT_THAT(CheckSpectralBand(0, 14), HasSubstr("lower band edge must be a finite number > 0"));
+  EXPECT_THAT(CheckSpectralBand(-1, 14), HasSubstr("got -1"));
+  EXPECT_THAT(CheckSpectralBand(std::nan(""), 14), HasSubstr("lower band edge"));
+  EXPECT_THAT(CheckSpectralBand(14, 7.5), HasSubstr("upper band edge must be finite and > "
+                                                    "the lower edge 14 µm, got 7.5"));
+  EXPECT_THAT(CheckSpectralBand(7.5, 7.5), HasSubstr("upper band edge"));
+  EXPECT_THAT(CheckSpectralBand(7.5, INFINITY), HasSubstr("upper band edge"));
+}
+
+TEST(RadiometryTest, ApparentSurfaceRoundTrip) {
+  double worst = 0, worst_vs_bound = 0;
+  for (const Band& b : kBands) {
+    const BandRadiance band(b.lo_um, b.hi_um);
+    for (double e = 0.1; e <= 1.0 + 1e-12; e += 0.1) {
+      const double emissivity = std::min(e, 1.0);
+      for (double reflected_c = -20; reflected_c <= 60; reflected_c += 10) {
+        for (const double surface_c : kTemperaturesC) {
+          const double apparent_c = ApparentFromSurface(band, surface_c, emissivity, reflected_c);
+          const double back = SurfaceFromApparent(band, apparent_c, emissivity, reflected_c);
+          const double error = std::abs(back - surface_c);
+          // The inversion amplifies the ~1e-15 relative rounding of the apparent temperature
+          // by its condition number dT_s/dT_a (up to ~4e5 in SWIR with e = 0.1: the surface
+          // then contributes a millionth of the signal). Within 10x of that bound, and
+          // within 1e-9 K outright in the thermal bands (d < 300 there).
+          const double d = SurfacePerApparent(band, apparent_c, emissivity, reflected_c);
+          const double bound = 1e-12 + 1e-14 * d * CelsiusToKelvin(apparent_c);
+          worst = std::max(worst, error);
+          worst_vs_bound = std::max(worst_vs_bound, error / bound);
+          ASSERT_LE(error, bound) << b.lo_um << " e=" << emissivity << " refl=" << reflected_c
+                                  << " surface=" << surface_c;
+          if (b.lo_um >= 3) {
+            ASSERT_LE(error, 1e-9) << b.lo_um << " e=" << emissivity << " refl=" << reflected_c;
+          }
+        }
+      }
+    }
+  }
+  std::printf("SurfaceFromApparent(ApparentFromSurface(T)): max error %.3g K, %.3g of bound\n",
+              worst, worst_vs_bound);
+}
+
+TEST(RadiometryTest, ApparentMatchesIndependentModel) {
+  // e L(T_s) + (1 - e) L(T_r) with the reference integral, inverted by bisection.
+  const double e = 0.7, surface_c = 80, reflected_c = 15;
+  const LD target = e * ReferenceRadiance(7.5, 14, CelsiusToKelvin(surface_c)) +
+                    (1 - e) * ReferenceRadiance(7.5, 14, CelsiusToKelvin(reflected_c));
+  LD lo = 200, hi = 400;
+  for (int i = 0; i < 80; ++i) {
+    const LD mid = 0.5L * (lo + hi);
+    (ReferenceRadiance(7.5, 14, mid) < target ? lo : hi) = mid;
+  }
+  const BandRadiance band(7.5, 14);
+  EXPECT_NEAR(ApparentFromSurface(band, surface_c, e, reflected_c),
+              static_cast<double>(lo) - 273.15, 1e-10);
+}
+
+TEST(RadiometryTest, PhysicalBehaviour) {
+  const BandRadiance band(7.5, 14);
+  // Emissivity 1: apparent is the surface temperature, exactly.
+  for (const double t_c : kTemperaturesC) {
+    EXPECT_EQ(ApparentFromSurface(band, t_c, 1.0, 55.0), t_c);
+    EXPECT_EQ(SurfaceFromApparent(band, t_c, 1.0, -10.0), t_c);
+  }
+  // Colder surroundings: a grey surface looks colder than it is, but warmer than them;
+  // the lower the emissivity, the colder it looks.
+  double previous = 100;
+  for (const double e : {0.95, 0.8, 0.5, 0.2}) {
+    const double apparent = ApparentFromSurface(band, 100, e, 20);
+    EXPECT_LT(apparent, previous) << e;
+    EXPECT_GT(apparent, 20);
+    previous = apparent;
+  }
+  // Hotter surroundings: it looks warmer. Equal temperatures: no change.
+  EXPECT_GT(ApparentFromSurface(band, 20, 0.5, 100), 20);
+  EXPECT_NEAR(ApparentFromSurface(band, 37, 0.3, 37), 37, 1e-10);
+  // Apparent temperature is never colder than the coldest of surface and reflection.
+  EXPECT_GT(ApparentFromSurface(band, -40, 0.9, -20), -40);
+}
+
+TEST(RadiometryTest, NoSurfaceTemperatureFitsTooColdAReading) {
+  // e = 0.1, reflection at 60 °C: the reflection alone gives more than 0 °C apparent, so a
+  // 0 °C reading implies a negative surface radiance.
+  const BandRadiance band(7.5, 14);
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(band, 0, 0.1, 60)));
+  const SurfaceTemperature s = SurfaceFromApparentWithDerivatives(band, 0, 0.1, 60);
+  EXPECT_TRUE(std::isnan(s.surface_c));
+  EXPECT_TRUE(std::isnan(s.d_apparent));
+  EXPECT_TRUE(std::isnan(s.d_reflected));
+  EXPECT_TRUE(std::isnan(s.d_emissivity));
+  EXPECT_TRUE(std::isnan(SurfacePerApparent(band, 0, 0.1, 60)));
+  // The boundary: the apparent temperature of a 0 K surface, i.e. of the reflection alone.
+  const double floor_c = ApparentFromSurface(band, -kKelvinOffset, 0.1, 60);
+  EXPECT_GT(floor_c, 0);
+  EXPECT_FALSE(std::isnan(SurfaceFromApparent(band, floor_c + 0.5, 0.1, 60)));
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(band, floor_c - 0.5, 0.1, 60)));
+  // NaN inputs propagate.
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(band, std::nan(""), 0.9, 20)));
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(band, 20, 0.9, std::nan(""))));
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(band, 20, 1.0, std::nan(""))));
+  EXPECT_TRUE(std::isnan(ApparentFromSurface(band, std::nan(""), 0.9, 20)));
+  EXPECT_TRUE(std::isnan(ApparentFromSurface(band, -300, 0.9, 20)));  // below absolute zero
+}
+
+TEST(RadiometryTest, SurfaceDerivativesMatchFiniteDifferences) {
+  const BandRadiance band(7.5, 14);
+  for (const double e : {0.3, 0.7, 0.95, 1.0}) {
+    for (const double apparent_c : {25.0, 60.0, 300.0}) {
+      const double reflected_c = 20;
+      const SurfaceTemperature s =
+          SurfaceFromApparentWithDerivatives(band, apparent_c, e, reflected_c);
+      EXPECT_NEAR(s.surface_c, SurfaceFromApparent(band, apparent_c, e, reflected_c), 1e-12);
+      const double h = 1e-3;  // K, and unit emissivity
+      auto f = [&](double a, double em, double r) { return SurfaceFromApparent(band, a, em, r); };
+      const double d_apparent =
+          (f(apparent_c + h, e, reflected_c) - f(apparent_c - h, e, reflected_c)) / (2 * h);
+      const double d_reflected =
+          (f(apparent_c, e, reflected_c + h) - f(apparent_c, e, reflected_c - h)) / (2 * h);
+      // Central difference in emissivity; at e = 1 only the one-sided one exists.
+      const double d_emissivity =
+          e < 1 ? (f(apparent_c, e + 1e-5, reflected_c) - f(apparent_c, e - 1e-5, reflected_c)) /
+                      2e-5
+                : (f(apparent_c, e, reflected_c) - f(apparent_c, e - 1e-6, reflected_c)) / 1e-6;
+      EXPECT_NEAR(s.d_apparent, d_apparent, 1e-6 * std::abs(d_apparent));
+      EXPECT_NEAR(s.d_reflected, d_reflected, 1e-6 * std::abs(d_apparent));
+      EXPECT_NEAR(s.d_emissivity, d_emissivity, 1e-4 * std::abs(d_emissivity));
+      EXPECT_EQ(SurfacePerApparent(band, apparent_c, e, reflected_c), s.d_apparent);
+      EXPECT_GE(s.d_apparent, 1.0 - 1e-15);
+      EXPECT_LE(s.d_reflected, 0.0);
+    }
+  }
+  EXPECT_EQ(SurfacePerApparent(band, 30, 1.0, 20), 1.0);
+}
+
+TEST(RadiometryTest, EmissivityOutsideRangeIsABug) {
+  const BandRadiance band(7.5, 14);
+  EXPECT_DEBUG_DEATH(ApparentFromSurface(band, 20, 0.0, 20), "emissivity");
+  EXPECT_DEBUG_DEATH(SurfaceFromApparent(band, 20, 1.5, 20), "emissivity");
+}
+
+TEST(RadiometryTest, Timing) {
+  // Prints the cost per call; no assertion (machine-dependent).
+  const BandRadiance band(7.5, 14);
+  const int n = 50000;
+  double sink = 0;
+  auto time_ns = [&](auto&& f) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < n; ++i) sink += f(i);
+    return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start)
+               .count() /
+           n;
+  };
+  const double radiance_ns = time_ns([&](int i) { return band.Radiance(233.15 + 0.005 * i); });
+  const double l0 = band.Radiance(233.15), l1 = band.Radiance(1273.15);
+  const double temperature_ns =
+      time_ns([&](int i) { return band.Temperature(l0 + (l1 - l0) * i / n); });
+  const double surface_ns =
+      time_ns([&](int i) { return SurfaceFromApparent(band, 20 + 0.001 * i, 0.95, 20); });
+  std::printf("per call: Radiance %.0f ns, Temperature %.0f ns, SurfaceFromApparent %.0f ns "
+              "(checksum %g)\n",
+              radiance_ns, temperature_ns, surface_ns, sink);
+  EXPECT_TRUE(std::isfinite(sink));
+}
+
+}  // namespace
+}  // namespace hw::core

@@ -48,7 +48,8 @@ class Trajectory {
 // lines, non-finite values, non-unit quaternions (|q| off by more than 1e-3; others are
 // normalised) or non-increasing timestamps.
 Trajectory ReadTumTrajectory(const std::filesystem::path& path);
-Trajectory ParseTumTrajectory(const std::string& text, const std::filesystem::path& path_for_errors);
+Trajectory ParseTumTrajectory(const std::string& text,
+                              const std::filesystem::path& path_for_errors);
 // Writes with full precision (round trip exact to 1e-12), atomically. Throws OutputError.
 void WriteTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);
 

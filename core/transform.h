@@ -18,7 +18,8 @@ struct Rigid3d {
       : rotation(q.normalized()), translation(t) {}
 
   static Rigid3d Identity() { return Rigid3d(); }
-  // From a 4x4 or 3x4 [R|t] matrix; R is re-orthonormalised through the quaternion.
+  // From a 3x4 [R|t] matrix (pass m.topRows<3>() for a 4x4); R is projected to the nearest
+  // rotation. Does not validate: parsers must reject non-rotations themselves.
   static Rigid3d FromMatrix(const Eigen::Matrix<double, 3, 4>& Rt);
   Eigen::Matrix<double, 3, 4> ToMatrix3x4() const;
   Eigen::Matrix4d ToMatrix4() const;
