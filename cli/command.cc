@@ -12,6 +12,7 @@ const std::vector<Command>& Commands() {
       {"help", RunHelp, "list the commands, or show one command's options"},
       {"version", RunVersion, "print the version"},
       {"scan-info", RunScanInfo, "validate a scan folder and summarise its streams"},
+      {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
   };
   return commands;
 }

@@ -54,5 +54,6 @@ void ThrowIfInvalid(const std::string& message, const std::string& prefix = "");
 int RunHelp(int argc, char** argv);
 int RunVersion(int argc, char** argv);
 int RunScanInfo(int argc, char** argv);
+int RunSynth(int argc, char** argv);
 
 }  // namespace hw::cli

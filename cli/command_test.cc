@@ -1,1 +1,87 @@
-// placeholder: being written
+#include "cli/command.h"
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+
+namespace hw::cli {
+namespace {
+
+// argv arrays for calling Run* functions directly.
+struct Argv {
+  explicit Argv(std::vector<std::string> args) : storage(std::move(args)) {
+    for (auto& s : storage) pointers.push_back(s.data());
+  }
+  int argc() const { return static_cast<int>(pointers.size()); }
+  char** argv() { return pointers.data(); }
+  std::vector<std::string> storage;
+  std::vector<char*> pointers;
+};
+
+TEST(Command, TableHasUniqueNamesAndSummaries) {
+  std::set<std::string> names;
+  for (const Command& c : Commands()) {
+    EXPECT_TRUE(names.insert(c.name).second) << "duplicate command " << c.name;
+    EXPECT_NE(c.run, nullptr);
+    EXPECT_GT(std::string(c.summary).size(), 10u) << c.name;
+  }
+  EXPECT_TRUE(names.count("help"));
+  EXPECT_TRUE(names.count("scan-info"));
+}
+
+TEST(Command, EveryCommandHasHelpAndRejectsUnknownOptions) {
+  for (const Command& c : Commands()) {
+    if (std::string(c.name) == "help") continue;
+    testing::internal::CaptureStdout();
+    Argv help({std::string("heatwave ") + c.name, "--help"});
+    EXPECT_EQ(c.run(help.argc(), help.argv()), kExitOk) << c.name;
+    const std::string out = testing::internal::GetCapturedStdout();
+    EXPECT_NE(out.find("--help"), std::string::npos) << c.name << ": " << out;
+
+    testing::internal::CaptureStderr();
+    Argv bad({std::string("heatwave ") + c.name, "--no-such-option"});
+    EXPECT_EQ(c.run(bad.argc(), bad.argv()), kExitUsage) << c.name;
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find("--help"), std::string::npos) << c.name << ": " << err;
+  }
+}
+
+TEST(Command, HelpListsCommandsAndUnknownIsUsageError) {
+  testing::internal::CaptureStdout();
+  Argv list({"heatwave help"});
+  EXPECT_EQ(RunHelp(list.argc(), list.argv()), kExitOk);
+  const std::string out = testing::internal::GetCapturedStdout();
+  for (const Command& c : Commands()) EXPECT_NE(out.find(c.name), std::string::npos);
+
+  testing::internal::CaptureStderr();
+  Argv unknown({"heatwave help", "no-such-command"});
+  EXPECT_EQ(RunHelp(unknown.argc(), unknown.argv()), kExitUsage);
+  EXPECT_NE(testing::internal::GetCapturedStderr().find("no-such-command"), std::string::npos);
+}
+
+TEST(Command, RunGuardedMapsErrorsToExitCodes) {
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(RunGuarded([] { return kExitOk; }), kExitOk);
+  EXPECT_EQ(RunGuarded([]() -> int { throw core::InputError("scan/rig.yaml", "bad"); }),
+            kExitFailure);
+  EXPECT_EQ(RunGuarded([]() -> int { throw core::OutputError("out.ply", "disk full"); }),
+            kExitFailure);
+  EXPECT_EQ(RunGuarded([]() -> int {
+              ThrowIfInvalid("voxel_m: must be > 0, got 0", "options: ");
+              return kExitOk;
+            }),
+            kExitUsage);
+  EXPECT_EQ(RunGuarded([]() -> int { throw std::runtime_error("boom"); }), kExitFailure);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("error: scan/rig.yaml: bad\n"), std::string::npos) << err;
+  EXPECT_NE(err.find("error: cannot write out.ply: disk full\n"), std::string::npos) << err;
+  EXPECT_NE(err.find("error: options: voxel_m: must be > 0, got 0\n"), std::string::npos) << err;
+  EXPECT_NO_THROW(ThrowIfInvalid(""));
+}
+
+}  // namespace
+}  // namespace hw::cli
