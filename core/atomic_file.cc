@@ -6,7 +6,6 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
-#include <sstream>
 #include <system_error>
 
 #include "core/error.h"
@@ -65,10 +64,15 @@ std::string ReadFile(const fs::path& path) {
   if (fs::is_directory(path, ec)) throw InputError(path, "is a folder, expected a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, std::string("cannot open: ") + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw InputError(path, "read error");
-  return ss.str();
+  // One read of the whole file (scan frames and meshes can be large).
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0) throw InputError(path, "cannot determine the file size");
+  in.seekg(0, std::ios::beg);
+  std::string content(static_cast<size_t>(size), '\0');
+  in.read(content.data(), size);
+  if (in.gcount() != size) throw InputError(path, "read error");
+  return content;
 }
 
 }  // namespace hw::core

@@ -1,1 +1,958 @@
-// placeholder: being written
+#include "core/ply.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace hw::core {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("hw_ply_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::vector<fs::path> ListDir(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir)) files.push_back(entry.path().filename());
+  return files;
+}
+
+// Same bits, so that NaN equals NaN and -0 differs from +0.
+bool SameBits(double a, double b) {
+  return std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
+}
+
+void ExpectSameMesh(const PlyMesh& expected, const PlyMesh& actual) {
+  ASSERT_EQ(actual.vertex_properties.size(), expected.vertex_properties.size());
+  for (size_t j = 0; j < expected.vertex_properties.size(); ++j) {
+    const PlyProperty& e = expected.vertex_properties[j];
+    const PlyProperty& a = actual.vertex_properties[j];
+    EXPECT_EQ(a.name, e.name);
+    EXPECT_EQ(a.type, e.type) << e.name;
+    ASSERT_EQ(a.values.size(), e.values.size()) << e.name;
+    for (size_t i = 0; i < e.values.size(); ++i) {
+      // What the file holds is the value converted to the property's type, exactly.
+      const double want = PlyRepresentable(e.type, e.values[i]);
+      EXPECT_TRUE(SameBits(a.values[i], want))
+          << e.name << "[" << i << "]: got " << a.values[i] << ", want " << want;
+    }
+  }
+  ASSERT_EQ(actual.faces.size(), expected.faces.size());
+  for (size_t f = 0; f < expected.faces.size(); ++f) {
+    EXPECT_EQ(actual.faces[f], expected.faces[f]) << "face " << f;
+  }
+}
+
+// Expects ParsePly(data) to throw InputError whose reason contains `message`.
+void ExpectInputError(const std::string& data, const std::string& message) {
+  try {
+    ParsePly(data, "bad.ply");
+    ADD_FAILURE() << "no error; expected: " << message;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.path(), fs::path("bad.ply"));
+    EXPECT_THAT(e.reason(), HasSubstr(message)) << "data:\n" << data.substr(0, 400);
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+}
+
+// Little- or big-endian bytes of a value, for building binary files by hand.
+template <typename T>
+std::string Bytes(T value, bool big_endian = false) {
+  std::string out(sizeof(T), '\0');
+  std::memcpy(out.data(), &value, sizeof(T));
+  if (big_endian != (std::endian::native == std::endian::big)) {
+    std::reverse(out.begin(), out.end());
+  }
+  return out;
+}
+
+// One property of every type, holding the type's extremes and awkward values.
+PlyMesh EveryTypeMesh() {
+  using F = std::numeric_limits<float>;
+  using D = std::numeric_limits<double>;
+  PlyMesh mesh;
+  mesh.AddProperty("i8", PlyType::kInt8, {-128, 127, 0, -1, 1, 42, -100, 5});
+  mesh.AddProperty("u8", PlyType::kUInt8, {0, 255, 1, 254, 128, 127, 7, 200});
+  mesh.AddProperty("i16", PlyType::kInt16, {-32768, 32767, 0, -1, 1, 12345, -12345, 300});
+  mesh.AddProperty("u16", PlyType::kUInt16, {0, 65535, 1, 65534, 32768, 256, 255, 40000});
+  mesh.AddProperty("i32", PlyType::kInt32,
+                   {-2147483648.0, 2147483647.0, 0, -1, 1, 123456789, -987654321, 65536});
+  mesh.AddProperty("u32", PlyType::kUInt32,
+                   {0, 4294967295.0, 1, 4294967294.0, 2147483648.0, 16777217, 3, 99});
+  mesh.AddProperty("f32", PlyType::kFloat32,
+                   {static_cast<double>(F::max()), static_cast<double>(F::lowest()),
+                    static_cast<double>(F::min()), static_cast<double>(F::denorm_min()),
+                    static_cast<double>(0.1f), -0.0, D::infinity(), D::quiet_NaN()});
+  mesh.AddProperty("f64", PlyType::kFloat64,
+                   {D::max(), D::lowest(), D::min(), D::denorm_min(), 0.1, -0.0, std::numbers::pi,
+                    -D::infinity()});
+  mesh.faces = {{0, 1, 2}, {7, 6, 5}, {2, 4, 3}};
+  return mesh;
+}
+
+class PlyFormatTest : public ::testing::TestWithParam<PlyFormat> {};
+
+INSTANTIATE_TEST_SUITE_P(AllFormats, PlyFormatTest,
+                         ::testing::Values(PlyFormat::kAscii, PlyFormat::kBinaryLittleEndian,
+                                           PlyFormat::kBinaryBigEndian));
+
+TEST(PlyType, NamesAliasesAndSizes) {
+  const std::vector<std::pair<PlyType, std::vector<std::string>>> expected = {
+      {PlyType::kInt8, {"char", "int8"}},        {PlyType::kUInt8, {"uchar", "uint8"}},
+      {PlyType::kInt16, {"short", "int16"}},     {PlyType::kUInt16, {"ushort", "uint16"}},
+      {PlyType::kInt32, {"int", "int32"}},       {PlyType::kUInt32, {"uint", "uint32"}},
+      {PlyType::kFloat32, {"float", "float32"}}, {PlyType::kFloat64, {"double", "float64"}}};
+  const std::vector<size_t> sizes = {1, 1, 2, 2, 4, 4, 4, 8};
+  for (size_t k = 0; k < expected.size(); ++k) {
+    const auto& [type, names] = expected[k];
+    EXPECT_EQ(PlyTypeName(type), names[0]);
+    for (const std::string& name : names) EXPECT_EQ(ParsePlyType(name), type) << name;
+    EXPECT_EQ(PlyTypeSize(type), sizes[k]);
+    EXPECT_EQ(PlyTypeIsInteger(type), k < 6);
+  }
+  EXPECT_EQ(ParsePlyType("flaot"), std::nullopt);
+  EXPECT_EQ(ParsePlyType("Float"), std::nullopt);
+  EXPECT_EQ(ParsePlyType(""), std::nullopt);
+  EXPECT_EQ(ParsePlyType("int64"), std::nullopt);
+}
+
+TEST(PlyType, RepresentableRoundsAndSaturates) {
+  EXPECT_EQ(PlyRepresentable(PlyType::kUInt8, 300), 255);
+  EXPECT_EQ(PlyRepresentable(PlyType::kUInt8, -5), 0);
+  EXPECT_EQ(PlyRepresentable(PlyType::kUInt8, 2.5), 3);
+  EXPECT_EQ(PlyRepresentable(PlyType::kUInt8, 2.49), 2);
+  EXPECT_EQ(PlyRepresentable(PlyType::kInt8, -128.4), -128);
+  EXPECT_EQ(PlyRepresentable(PlyType::kInt8, -1e300), -128);
+  EXPECT_EQ(PlyRepresentable(PlyType::kInt16, std::nan("")), 0);
+  EXPECT_EQ(PlyRepresentable(PlyType::kUInt32, 1e20), 4294967295.0);
+  EXPECT_EQ(PlyRepresentable(PlyType::kInt32, -1e20), -2147483648.0);
+  EXPECT_EQ(PlyRepresentable(PlyType::kInt32, std::numeric_limits<double>::infinity()),
+            2147483647.0);
+  EXPECT_EQ(PlyRepresentable(PlyType::kFloat32, 0.1), static_cast<double>(0.1f));
+  EXPECT_EQ(PlyRepresentable(PlyType::kFloat32, 1e39), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(PlyRepresentable(PlyType::kFloat32, -1e39), -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(PlyRepresentable(PlyType::kFloat32, 3.4028235e38), 3.4028234663852886e38);
+  EXPECT_EQ(PlyRepresentable(PlyType::kFloat64, 0.1), 0.1);
+}
+
+TEST_P(PlyFormatTest, EveryTypeAtItsLimitsRoundTripsExactly) {
+  PlyMesh mesh = EveryTypeMesh();
+  mesh.comments = {"made in a test", "second comment"};
+  const std::string bytes = SerializePly(mesh, GetParam());
+  const PlyMesh read = ParsePly(bytes, "every_type.ply");
+  ExpectSameMesh(mesh, read);
+  EXPECT_EQ(read.comments,
+            (std::vector<std::string>{"written by heatwave", "made in a test", "second comment"}));
+  // Writing what was read gives the same bytes: nothing drifts, comments do not pile up.
+  EXPECT_EQ(SerializePly(read, GetParam()), bytes);
+}
+
+TEST_P(PlyFormatTest, OutOfRangeValuesAreWrittenSaturated) {
+  PlyMesh mesh;
+  mesh.AddProperty("u8", PlyType::kUInt8, {-3, 255.6, 17.4});
+  mesh.AddProperty("f32", PlyType::kFloat32, {1e300, 0.1, -1e300});
+  const PlyMesh read = ParsePly(SerializePly(mesh, GetParam()), "saturated.ply");
+  EXPECT_EQ(read.Get("u8").values, (std::vector<double>{0, 255, 17}));
+  EXPECT_EQ(read.Get("f32").values[0], std::numeric_limits<double>::infinity());
+  EXPECT_EQ(read.Get("f32").values[1], static_cast<double>(0.1f));
+  EXPECT_EQ(read.Get("f32").values[2], -std::numeric_limits<double>::infinity());
+}
+
+TEST_P(PlyFormatTest, MixedPropertiesThroughAccessorsAndFiles) {
+  const fs::path dir = FreshDir("mixed" + std::to_string(static_cast<int>(GetParam())));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(-2.0, 2.0);
+  const size_t n = 500;
+  std::vector<Eigen::Vector3d> positions(n), normals(n);
+  std::vector<Rgba8> colors(n);
+  std::vector<double> temperature_c(n), confidence(n);
+  for (size_t i = 0; i < n; ++i) {
+    positions[i] = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    normals[i] = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)).normalized();
+    colors[i] = Rgba8(static_cast<uint8_t>(i), static_cast<uint8_t>(255 - i % 256),
+                      static_cast<uint8_t>(i * 7), static_cast<uint8_t>(i * 13));
+    temperature_c[i] = 20.0 + 10.0 * uniform(rng);
+    confidence[i] = 0.25 * (uniform(rng) + 2.0);
+  }
+  PlyMesh mesh;
+  mesh.AddProperty("temperature_c", PlyType::kFloat32, temperature_c);
+  mesh.SetPositions(positions);  // goes first
+  mesh.SetNormals(normals);
+  mesh.SetColorsWithAlpha(colors);
+  mesh.AddProperty("confidence", PlyType::kFloat64, confidence);
+  for (size_t f = 0; f + 2 < n; f += 3) {
+    mesh.faces.emplace_back(static_cast<int>(f), static_cast<int>(f + 1), static_cast<int>(f + 2));
+  }
+  std::vector<std::string> names;
+  for (const PlyProperty& p : mesh.vertex_properties) names.push_back(p.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"x", "y", "z", "temperature_c", "nx", "ny", "nz",
+                                             "red", "green", "blue", "alpha", "confidence"}));
+
+  const fs::path path = dir / "sub" / "mesh.ply";
+  WritePly(path, mesh, GetParam());
+  const PlyMesh read = ReadPly(path);
+  ExpectSameMesh(mesh, read);
+  EXPECT_EQ(ListDir(path.parent_path()), std::vector<fs::path>{"mesh.ply"});
+
+  // Float properties come back as the nearest float: within half a float ulp.
+  const std::vector<Eigen::Vector3d> p = read.Positions();
+  const std::vector<Eigen::Vector3d> nrm = read.Normals();
+  const std::vector<Rgba8> c = read.ColorsWithAlpha();
+  ASSERT_EQ(p.size(), n);
+  for (size_t i = 0; i < n; ++i) {
+    EXPECT_LE((p[i] - positions[i]).cwiseAbs().maxCoeff(), 0x1p-24) << i;
+    EXPECT_LE((nrm[i] - normals[i]).cwiseAbs().maxCoeff(), 0x1p-24) << i;
+    EXPECT_EQ(c[i], colors[i]) << i;
+    EXPECT_EQ(read.Get("confidence").values[i], confidence[i]);  // double: exact
+  }
+}
+
+TEST_P(PlyFormatTest, EmptyMeshAndPointCloud) {
+  const PlyMesh empty = ParsePly(SerializePly(PlyMesh(), GetParam()), "empty.ply");
+  EXPECT_EQ(empty.NumVertices(), 0u);
+  EXPECT_TRUE(empty.vertex_properties.empty());
+  EXPECT_TRUE(empty.faces.empty());
+
+  PlyMesh cloud;
+  cloud.SetPositions({{1, 2, 3}, {4, 5, 6}}, PlyType::kFloat64);
+  const std::string bytes = SerializePly(cloud, GetParam());
+  EXPECT_THAT(bytes, HasSubstr("element face 0\n"));
+  const PlyMesh read = ParsePly(bytes, "cloud.ply");
+  ExpectSameMesh(cloud, read);
+  EXPECT_EQ(read.Positions()[1], Eigen::Vector3d(4, 5, 6));
+}
+
+TEST(PlyWrite, ExactAsciiText) {
+  PlyMesh mesh;
+  mesh.SetPositions({{0, 0, 0}, {1, 0, 0}, {0, 0.1, 0}}, PlyType::kFloat32);
+  mesh.AddProperty("temperature_c", PlyType::kFloat32, {21.5, -3.25, 1e-7});
+  mesh.SetColors({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}});
+  mesh.faces = {{0, 1, 2}};
+  EXPECT_EQ(SerializePly(mesh, PlyFormat::kAscii),
+            "ply\n"
+            "format ascii 1.0\n"
+            "comment written by heatwave\n"
+            "element vertex 3\n"
+            "property float x\n"
+            "property float y\n"
+            "property float z\n"
+            "property float temperature_c\n"
+            "property uchar red\n"
+            "property uchar green\n"
+            "property uchar blue\n"
+            "element face 1\n"
+            "property list uchar int vertex_indices\n"
+            "end_header\n"
+            "0 0 0 21.5 255 0 0\n"
+            "1 0 0 -3.25 0 255 0\n"
+            "0 0.1 0 1e-07 0 0 255\n"
+            "3 0 1 2\n");
+}
+
+TEST(PlyWrite, ExactBinaryBytes) {
+  PlyMesh mesh;
+  mesh.AddProperty("x", PlyType::kFloat32, {1.0, -2.0});
+  mesh.AddProperty("s", PlyType::kInt16, {-2, 258});
+  mesh.AddProperty("c", PlyType::kUInt8, {7, 200});
+  mesh.faces = {{1, 0, 1}};
+  const std::string header_tail =
+      " 1.0\ncomment written by heatwave\nelement vertex 2\nproperty float x\n"
+      "property short s\nproperty uchar c\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  const std::string le = std::string("\x00\x00\x80\x3f", 4) + "\xfe\xff" + "\x07" +
+                         std::string("\x00\x00\x00\xc0", 4) + "\x02\x01" + "\xc8" + "\x03" +
+                         std::string("\x01\x00\x00\x00\x00\x00\x00\x00\x01\x00\x00\x00", 12);
+  const std::string be = std::string("\x3f\x80\x00\x00", 4) + "\xff\xfe" + "\x07" +
+                         std::string("\xc0\x00\x00\x00", 4) + "\x01\x02" + "\xc8" + "\x03" +
+                         std::string("\x00\x00\x00\x01\x00\x00\x00\x00\x00\x00\x00\x01", 12);
+  EXPECT_EQ(SerializePly(mesh, PlyFormat::kBinaryLittleEndian),
+            "ply\nformat binary_little_endian" + header_tail + le);
+  EXPECT_EQ(SerializePly(mesh, PlyFormat::kBinaryBigEndian),
+            "ply\nformat binary_big_endian" + header_tail + be);
+}
+
+TEST(PlyRead, MeshLabStyleAscii) {
+  // As MeshLab (VCG) writes: obj_info-free header, trailing spaces on every data line.
+  const std::string text =
+      "ply\n"
+      "format ascii 1.0\n"
+      "comment VCGLIB generated\n"
+      "element vertex 4\n"
+      "property float x\n"
+      "property float y\n"
+      "property float z\n"
+      "property float nx\n"
+      "property float ny\n"
+      "property float nz\n"
+      "property uchar red\n"
+      "property uchar green\n"
+      "property uchar blue\n"
+      "property uchar alpha\n"
+      "element face 2\n"
+      "property list uchar int vertex_indices\n"
+      "end_header\n"
+      "0 0 0 0 0 1 255 0 0 255 \n"
+      "1.5 0 0 0 0 1 0 255 0 255 \n"
+      "1.5 2.25 0 0 0 1 0 0 255 128 \n"
+      "0 2.25 -0.125 0 0 1 10 20 30 0 \n"
+      "3 0 1 2 \n"
+      "3 0 2 3 \n";
+  const PlyMesh mesh = ParsePly(text, "meshlab.ply");
+  EXPECT_EQ(mesh.comments, std::vector<std::string>{"VCGLIB generated"});
+  ASSERT_EQ(mesh.NumVertices(), 4u);
+  EXPECT_EQ(mesh.vertex_properties.size(), 10u);
+  EXPECT_EQ(mesh.Positions()[2], Eigen::Vector3d(1.5, 2.25, 0));
+  EXPECT_EQ(mesh.Positions()[3], Eigen::Vector3d(0, 2.25, -0.125));
+  EXPECT_EQ(mesh.Normals()[1], Eigen::Vector3d(0, 0, 1));
+  EXPECT_EQ(mesh.Get("red").type, PlyType::kUInt8);
+  EXPECT_EQ(mesh.ColorsWithAlpha()[2], Rgba8(0, 0, 255, 128));
+  EXPECT_EQ(mesh.Colors()[3], Rgb8(10, 20, 30));
+  ASSERT_EQ(mesh.faces.size(), 2u);
+  EXPECT_EQ(mesh.faces[0], Eigen::Vector3i(0, 1, 2));
+  EXPECT_EQ(mesh.faces[1], Eigen::Vector3i(0, 2, 3));
+}
+
+TEST(PlyRead, CrlfLineEndingsBlankLinesAndAliases) {
+  const std::string text =
+      "ply\r\nformat ascii 1.0\r\nobj_info scanner 1\r\nelement vertex 3\r\n"
+      "property float32 x\r\nproperty float32 y\r\nproperty float32 z\r\n"
+      "property int8 label\r\nelement face 1\r\nproperty list uint8 uint32 vertex_index\r\n"
+      "end_header\r\n"
+      "0 0 0 -7\r\n\r\n1e0 +2 0.5 +3\r\n  0\t1 2   4  \r\n3 2 1 0\r\n\r\n";
+  const PlyMesh mesh = ParsePly(text, "crlf.ply");
+  EXPECT_EQ(mesh.Get("label").values, (std::vector<double>{-7, 3, 4}));
+  EXPECT_EQ(mesh.Get("label").type, PlyType::kInt8);
+  EXPECT_EQ(mesh.Positions()[1], Eigen::Vector3d(1, 2, 0.5));
+  ASSERT_EQ(mesh.faces.size(), 1u);
+  EXPECT_EQ(mesh.faces[0], Eigen::Vector3i(2, 1, 0));
+
+  // A binary file whose header has CRLF line ends: the data starts after the '\n'.
+  const std::string binary =
+      "ply\r\nformat binary_little_endian 1.0\r\nelement vertex 1\r\n"
+      "property ushort v\r\nend_header\r\n" +
+      Bytes<uint16_t>(0x0d0a);
+  EXPECT_EQ(ParsePly(binary, "crlf_binary.ply").Get("v").values[0], 0x0d0a);
+}
+
+TEST(PlyRead, FaceElementBeforeVertexAndNumberForms) {
+  // Element order is free; indices are checked against the vertex count of the header.
+  const std::string text =
+      "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "element vertex 3\nproperty double x\nproperty short s\nend_header\n"
+      "3 2 0 1\n.5 1.0e1\n-1. +7\n1.5e-3 -0\n";
+  const PlyMesh mesh = ParsePly(text, "order.ply");
+  EXPECT_EQ(mesh.faces, (std::vector<Eigen::Vector3i>{{2, 0, 1}}));
+  EXPECT_EQ(mesh.Get("x").values, (std::vector<double>{0.5, -1.0, 1.5e-3}));
+  EXPECT_EQ(mesh.Get("s").values, (std::vector<double>{10, 7, 0}));
+}
+
+TEST(PlyRead, PolygonsAreFanTriangulated) {
+  const std::string header =
+      "element vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 3\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::vector<Eigen::Vector3i> expected = {{0, 1, 2}, {0, 2, 3},              // quad
+                                                 {3, 4, 5},                         // triangle
+                                                 {5, 4, 3}, {5, 3, 2}, {5, 2, 1}};  // pentagon
+  std::string ascii = "ply\nformat ascii 1.0\n" + header;
+  for (int i = 0; i < 6; ++i) ascii += std::to_string(i) + " 0 0\n";
+  ascii += "4 0 1 2 3\n3 3 4 5\n5 5 4 3 2 1\n";
+  EXPECT_EQ(ParsePly(ascii, "fan.ply").faces, expected);
+
+  std::string binary = "ply\nformat binary_little_endian 1.0\n" + header;
+  for (int i = 0; i < 6; ++i) binary += Bytes<float>(i) + Bytes<float>(0) + Bytes<float>(0);
+  for (const std::vector<int>& polygon :
+       std::vector<std::vector<int>>{{0, 1, 2, 3}, {3, 4, 5}, {5, 4, 3, 2, 1}}) {
+    binary += Bytes<uint8_t>(static_cast<uint8_t>(polygon.size()));
+    for (const int index : polygon) binary += Bytes<int32_t>(index);
+  }
+  EXPECT_EQ(ParsePly(binary, "fan.ply").faces, expected);
+}
+
+TEST(PlyRead, UnknownElementsAndListsAreSkipped) {
+  // Elements before, between and after the known ones; list properties in an unknown
+  // element, in the vertex element (skipped) and face properties after the index list
+  // (per-face colour, as some writers emit).
+  const std::string header_tail =
+      " 1.0\n"
+      "element material 2\nproperty list ushort float coefficients\nproperty uchar kind\n"
+      "element vertex 3\nproperty double x\nproperty list uchar int neighbours\n"
+      "property short t\n"
+      "element edge 1\nproperty int vertex1\nproperty int vertex2\n"
+      "element face 2\nproperty uchar flags\nproperty list uchar uint vertex_indices\n"
+      "property uchar red\nproperty list int short ids\n"
+      "element camera 1\nproperty list uint double matrix\n"
+      "end_header\n";
+  const std::string ascii = "ply\nformat ascii 1.0\ncomment c\n" + header_tail.substr(5) +
+                            "3 0.5 1.5 2.5 9\n0 1\n"
+                            "0.25 2 1 2 -1\n1.25 0 -2\n2.25 1 0 -3\n"
+                            "0 2\n"
+                            "1 3 0 1 2 255 2 7 8\n0 4 2 1 0 1 0 0\n"
+                            "2 1 2\n";
+  auto check = [](const PlyMesh& mesh) {
+    ASSERT_EQ(mesh.vertex_properties.size(), 2u);
+    EXPECT_EQ(mesh.Get("x").values, (std::vector<double>{0.25, 1.25, 2.25}));
+    EXPECT_EQ(mesh.Get("t").values, (std::vector<double>{-1, -2, -3}));
+    EXPECT_EQ(mesh.Get("t").type, PlyType::kInt16);
+    EXPECT_EQ(mesh.faces, (std::vector<Eigen::Vector3i>{{0, 1, 2}, {2, 1, 0}, {2, 0, 1}}));
+  };
+  check(ParsePly(ascii, "skip.ply"));
+
+  for (const bool big : {false, true}) {
+    std::string binary = std::string("ply\nformat ") +
+                         (big ? "binary_big_endian" : "binary_little_endian") + header_tail;
+    // material
+    binary += Bytes<uint16_t>(3, big) + Bytes<float>(0.5f, big) + Bytes<float>(1.5f, big) +
+              Bytes<float>(2.5f, big) + Bytes<uint8_t>(9);
+    binary += Bytes<uint16_t>(0, big) + Bytes<uint8_t>(1);
+    // vertex
+    binary += Bytes<double>(0.25, big) + Bytes<uint8_t>(2) + Bytes<int32_t>(1, big) +
+              Bytes<int32_t>(2, big) + Bytes<int16_t>(-1, big);
+    binary += Bytes<double>(1.25, big) + Bytes<uint8_t>(0) + Bytes<int16_t>(-2, big);
+    binary += Bytes<double>(2.25, big) + Bytes<uint8_t>(1) + Bytes<int32_t>(0, big) +
+              Bytes<int16_t>(-3, big);
+    // edge
+    binary += Bytes<int32_t>(0, big) + Bytes<int32_t>(2, big);
+    // face
+    binary += Bytes<uint8_t>(1) + Bytes<uint8_t>(3) + Bytes<uint32_t>(0, big) +
+              Bytes<uint32_t>(1, big) + Bytes<uint32_t>(2, big) + Bytes<uint8_t>(255) +
+              Bytes<int32_t>(2, big) + Bytes<int16_t>(7, big) + Bytes<int16_t>(8, big);
+    binary += Bytes<uint8_t>(0) + Bytes<uint8_t>(4) + Bytes<uint32_t>(2, big) +
+              Bytes<uint32_t>(1, big) + Bytes<uint32_t>(0, big) + Bytes<uint32_t>(1, big) +
+              Bytes<uint8_t>(0) + Bytes<int32_t>(0, big);
+    // camera
+    binary += Bytes<uint32_t>(2, big) + Bytes<double>(1, big) + Bytes<double>(2, big);
+    SCOPED_TRACE(big ? "big-endian" : "little-endian");
+    check(ParsePly(binary, "skip.ply"));
+  }
+}
+
+TEST(PlyRead, BigEndianFileBuiltByteByByte) {
+  std::string file =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nproperty short s\nproperty uint u\n"
+      "property double temperature_c\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n";
+  const unsigned char data[] = {
+      0x3f, 0x80, 0x00, 0x00,                          // x = 1.0f
+      0xc0, 0x00, 0x00, 0x00,                          // y = -2.0f
+      0x3e, 0x80, 0x00, 0x00,                          // z = 0.25f
+      0xff, 0xfe,                                      // s = -2
+      0x01, 0x02, 0x03, 0x04,                          // u = 0x01020304
+      0x40, 0x35, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,  // 21.0
+      0x00, 0x00, 0x00, 0x00,                          // x = 0
+      0x7f, 0x80, 0x00, 0x00,                          // y = +inf
+      0x80, 0x00, 0x00, 0x01,                          // z = -denorm_min
+      0x80, 0x00,                                      // s = -32768
+      0xff, 0xff, 0xff, 0xff,                          // u = 4294967295
+      0xc0, 0x71, 0x13, 0x33, 0x33, 0x33, 0x33, 0x33,  // -273.2
+      0x03, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01,  // 1 0 1
+  };
+  file.append(reinterpret_cast<const char*>(data), sizeof(data));
+  const PlyMesh mesh = ParsePly(file, "be.ply");
+  EXPECT_EQ(mesh.Positions()[0], Eigen::Vector3d(1.0, -2.0, 0.25));
+  EXPECT_EQ(mesh.Get("x").values[1], 0.0);
+  EXPECT_EQ(mesh.Get("y").values[1], std::numeric_limits<double>::infinity());
+  EXPECT_EQ(mesh.Get("z").values[1],
+            -static_cast<double>(std::numeric_limits<float>::denorm_min()));
+  EXPECT_EQ(mesh.Get("s").values, (std::vector<double>{-2, -32768}));
+  EXPECT_EQ(mesh.Get("u").values, (std::vector<double>{0x01020304, 4294967295.0}));
+  EXPECT_EQ(mesh.Get("temperature_c").values, (std::vector<double>{21.0, -273.2}));
+  EXPECT_EQ(mesh.faces, (std::vector<Eigen::Vector3i>{{1, 0, 1}}));
+}
+
+TEST(PlyMeshTest, Accessors) {
+  PlyMesh mesh;
+  EXPECT_EQ(mesh.NumVertices(), 0u);
+  EXPECT_EQ(mesh.Find("x"), nullptr);
+  EXPECT_FALSE(mesh.HasPositions());
+  mesh.AddProperty("emissivity", PlyType::kFloat32, {0.9, 0.95});
+  mesh.SetPositions({{1, 2, 3}, {4, 5, 6}});
+  EXPECT_EQ(mesh.vertex_properties[0].name, "x");
+  EXPECT_EQ(mesh.vertex_properties[3].name, "emissivity");
+  EXPECT_EQ(mesh.NumVertices(), 2u);
+  EXPECT_TRUE(mesh.HasPositions());
+  EXPECT_FALSE(mesh.HasNormals());
+  EXPECT_FALSE(mesh.HasColors());
+  // Replacing keeps the place and changes the type.
+  mesh.SetPositions({{7, 8, 9}, {1, 1, 1}}, PlyType::kFloat64);
+  EXPECT_EQ(mesh.vertex_properties[2].name, "z");
+  EXPECT_EQ(mesh.Get("z").type, PlyType::kFloat64);
+  EXPECT_EQ(mesh.Positions()[0], Eigen::Vector3d(7, 8, 9));
+  mesh.SetProperty("emissivity", PlyType::kFloat64, {0.5, 0.6});
+  mesh.SetProperty("confidence", PlyType::kUInt8, {1, 2});
+  EXPECT_EQ(mesh.vertex_properties.back().name, "confidence");
+  EXPECT_EQ(mesh.Get("emissivity").values[1], 0.6);
+  mesh.Get("confidence").values[0] = 9;
+  EXPECT_EQ(mesh.Find("confidence")->values[0], 9);
+  EXPECT_TRUE(mesh.RemoveProperty("confidence"));
+  EXPECT_FALSE(mesh.RemoveProperty("confidence"));
+  EXPECT_EQ(mesh.Check(), "");
+
+  // Colours: alpha defaults to 255; float colour is 0..1, scaled and clamped.
+  mesh.SetColorsWithAlpha({{1, 2, 3, 4}, {5, 6, 7, 8}});
+  EXPECT_EQ(mesh.ColorsWithAlpha()[1], Rgba8(5, 6, 7, 8));
+  mesh.SetColors({{1, 2, 3}, {5, 6, 7}});
+  EXPECT_EQ(mesh.Find("alpha"), nullptr);
+  EXPECT_EQ(mesh.ColorsWithAlpha()[0], Rgba8(1, 2, 3, 255));
+  mesh.SetProperty("red", PlyType::kFloat32, {0.5, 2.0});
+  mesh.SetProperty("green", PlyType::kInt16, {-4, 1000});
+  EXPECT_EQ(mesh.Colors()[0], Rgb8(128, 0, 3));
+  EXPECT_EQ(mesh.Colors()[1], Rgb8(255, 255, 7));
+}
+
+TEST(PlyMeshTest, CheckNamesWhatIsWrong) {
+  PlyMesh mesh;
+  mesh.SetPositions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  mesh.faces = {{0, 1, 2}};
+  EXPECT_EQ(mesh.Check(), "");
+  PlyMesh bad = mesh;
+  bad.faces.emplace_back(0, 3, 1);
+  EXPECT_EQ(bad.Check(), "face 1: vertex index 3 out of range (3 vertices)");
+  bad = mesh;
+  bad.faces.emplace_back(-1, 0, 1);
+  EXPECT_THAT(bad.Check(), HasSubstr("vertex index -1 out of range"));
+  bad = mesh;
+  bad.vertex_properties[1].values.pop_back();
+  EXPECT_EQ(bad.Check(), "property y has 2 values, property x has 3");
+  bad = mesh;
+  bad.vertex_properties[2].name = "x";
+  EXPECT_EQ(bad.Check(), "duplicate property x");
+  bad = mesh;
+  bad.vertex_properties[2].name = "two words";
+  EXPECT_THAT(bad.Check(), HasSubstr("invalid PLY name"));
+  bad = mesh;
+  bad.vertex_properties[2].name = "";
+  EXPECT_THAT(bad.Check(), HasSubstr("invalid PLY name"));
+  bad = mesh;
+  bad.comments = {"two\nlines"};
+  EXPECT_THAT(bad.Check(), HasSubstr("line break"));
+}
+
+TEST(PlyMeshDeathTest, MisuseAsserts) {
+  PlyMesh mesh;
+  mesh.SetPositions({{0, 0, 0}, {1, 0, 0}});
+  EXPECT_DEATH(mesh.AddProperty("t", PlyType::kFloat32, {1.0}), "size");
+  EXPECT_DEATH(mesh.AddProperty("x", PlyType::kFloat32, {1.0, 2.0}), "already");
+  EXPECT_DEATH(mesh.Get("nope"), "nope");
+  mesh.faces = {{0, 1, 2}};
+  EXPECT_DEATH(SerializePly(mesh), "out of range");
+}
+
+TEST(PlyRead, HeaderErrors) {
+  const std::string v = "element vertex 1\nproperty float x\n";
+  ExpectInputError("", "not a PLY file");
+  ExpectInputError("plx\nformat ascii 1.0\nend_header\n", "not a PLY file");
+  ExpectInputError("PLY\nformat ascii 1.0\nend_header\n", "not a PLY file");
+  ExpectInputError("ply", "not a PLY file");
+  ExpectInputError("ply\nformat binary_middle_endian 1.0\n" + v + "end_header\n",
+                   "line 2: unknown format 'binary_middle_endian'");
+  ExpectInputError("ply\nformat ascii 2.0\nend_header\n", "line 2: unsupported PLY version '2.0'");
+  ExpectInputError("ply\nformat ascii\nend_header\n", "line 2: expected 'format");
+  ExpectInputError("ply\nformat ascii 1.0\nformat ascii 1.0\nend_header\n",
+                   "line 3: second format line");
+  ExpectInputError("ply\nelement vertex 1\nformat ascii 1.0\nend_header\n",
+                   "line 2: element before the format line");
+  ExpectInputError("ply\nend_header\n", "line 2: end_header before the format line");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 1\nproperty flaot x\nend_header\n0\n",
+                   "line 4: unknown property type 'flaot'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar flaot x\n",
+                   "line 4: unknown property type 'flaot'");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v, "no end_header line");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + "end_header", "no end_header line");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + "comment a\rb\nend_header\n0\n",
+                   "line 5: control character 0x0d in the header");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x" +
+                       std::string(1, '\0') + "y\nend_header\n0\n",
+                   "line 4: control character 0x00 in the header");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + "end_header now\n0\n",
+                   "line 5: text after end_header");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + "vertices 3\nend_header\n",
+                   "line 5: unknown header keyword 'vertices'");
+  ExpectInputError("ply\nformat ascii 1.0\nproperty float x\n" + v + "end_header\n",
+                   "line 3: property before any element");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + "property float x\nend_header\n",
+                   "line 5: duplicate property 'x' in element vertex");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v + v + "end_header\n",
+                   "line 5: duplicate element 'vertex'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex\nend_header\n",
+                   "line 3: expected 'element <name> <count>'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex -3\nend_header\n",
+                   "line 3: element 'vertex': count is not a non-negative integer: '-3'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 3.5\nend_header\n",
+                   "count is not a non-negative integer: '3.5'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 99999999999999999999\nend_header\n",
+                   "count is not a non-negative integer");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 1\nproperty float\nend_header\n",
+                   "line 4: expected 'property <type> <name>'");
+  ExpectInputError("ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar x\n",
+                   "line 4: expected 'property list <count type> <item type> <name>'");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v +
+                       "element face 1\nproperty list float int vertex_indices\nend_header\n",
+                   "line 6: list count type must be an integer type, got 'float'");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v +
+                       "element face 1\nproperty list uchar float vertex_indices\nend_header\n",
+                   "line 6: vertex indices must be of an integer type, got float");
+  ExpectInputError(
+      "ply\nformat ascii 1.0\n" + v + "element face 1\nproperty int vertex_indices\nend_header\n",
+      "line 6: face property vertex_indices must be a list");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v +
+                       "element face 1\nproperty list uchar int corners\nend_header\n",
+                   "element face has no list property vertex_indices");
+  ExpectInputError("ply\nformat ascii 1.0\n" + v +
+                       "element face 1\nproperty list uchar int vertex_indices\n"
+                       "property list uchar int vertex_index\nend_header\n",
+                   "element face has both vertex_indices and vertex_index");
+  ExpectInputError(
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty list uchar float x\n"
+      "end_header\n",
+      "element vertex has 3 vertices but no scalar property");
+  ExpectInputError(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3000000000\n"
+      "property float x\nend_header\n",
+      "element vertex: 3000000000 vertices, more than the 2147483647 supported");
+}
+
+TEST(PlyRead, BinaryDataErrors) {
+  const std::string head =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 2\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  std::string vertices;
+  for (int i = 0; i < 9; ++i) vertices += Bytes<float>(static_cast<float>(i));
+  auto face = [](std::vector<int32_t> indices) {
+    std::string out = Bytes<uint8_t>(static_cast<uint8_t>(indices.size()));
+    for (const int32_t index : indices) out += Bytes<int32_t>(index);
+    return out;
+  };
+  const std::string good = head + vertices + face({0, 1, 2}) + face({2, 1, 0});
+  EXPECT_EQ(ParsePly(good, "good.ply").faces.size(), 2u);
+
+  ExpectInputError(head + vertices.substr(0, 20),
+                   "truncated: expected 36 bytes of vertex data, got 20");
+  ExpectInputError(head + vertices, "truncated: expected at least 26 bytes of face data, got 0");
+  ExpectInputError(head + vertices + face({0, 1, 2, 0}) + face({2, 1, 0}).substr(0, 12),
+                   "truncated: face 1: list vertex_indices of 3 items needs 12 bytes, got 11");
+  ExpectInputError(head + vertices + face({0, 1, 2}) + face({2, 7, 0}),
+                   "face 1: vertex index 7 out of range (3 vertices)");
+  ExpectInputError(head + vertices + face({0, -1, 2}) + face({2, 1, 0}),
+                   "face 0: vertex index -1 out of range (3 vertices)");
+  ExpectInputError(head + vertices + face({0, 1}) + face({2, 1, 0}) + Bytes<int32_t>(0),
+                   "face 0: 2 vertex indices, a face needs at least 3");
+  ExpectInputError(head + vertices + face({}) + face({2, 1, 0}) + std::string(12, '\0'),
+                   "face 0: 0 vertex indices, a face needs at least 3");
+  ExpectInputError(good + "\n", "1 bytes of unexpected data after the last element");
+  // A list of 200 items with the data for far fewer.
+  ExpectInputError(head + vertices + Bytes<uint8_t>(200) + std::string(30, '\0'),
+                   "truncated: face 0: list vertex_indices of 200 items needs 800 bytes, got 30");
+  // Negative list lengths (signed count types).
+  const std::string signed_head =
+      "ply\nformat binary_little_endian 1.0\nelement things 1\n"
+      "property list char float values\nend_header\n";
+  ExpectInputError(signed_head + Bytes<int8_t>(-1) + std::string(8, '\0'),
+                   "things 0: list values has negative length -1");
+  // The file ends inside a scalar of a row of variable length.
+  const std::string mixed_head =
+      "ply\nformat binary_little_endian 1.0\nelement extra 2\nproperty list uchar int a\n"
+      "property int b\nend_header\n";
+  ExpectInputError(
+      mixed_head + Bytes<uint8_t>(3) + std::string(16, '\0') + Bytes<uint8_t>(0) + "\x01\x02",
+      "truncated: the file ends inside extra 1 of 2");
+}
+
+TEST(PlyRead, AbsurdCountsFailBeforeAllocating) {
+  // If any of these allocated what the header claims, the test would run out of memory or
+  // take far too long; they must fail at once on the size of the data.
+  ExpectInputError(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\n"
+      "property double x\nproperty double y\nend_header\n" +
+          std::string(64, 'a'),
+      "truncated: expected 32000000000 bytes of vertex data, got 64");
+  ExpectInputError(
+      "ply\nformat ascii 1.0\nelement vertex 2000000000\n"
+      "property double x\nproperty double y\nend_header\n0 0\n",
+      "truncated: 2000000000 vertex rows need at least 4000000000 values, but "
+      "only 4 bytes of text follow");
+  ExpectInputError(
+      "ply\nformat binary_big_endian 1.0\nelement vertex 0\nproperty float x\n"
+      "element face 1000000000000\nproperty list uchar int vertex_indices\n"
+      "end_header\n" +
+          std::string(100, '\0'),
+      "truncated: expected at least 13000000000000 bytes of face data, got 100");
+  ExpectInputError(
+      "ply\nformat binary_little_endian 1.0\nelement edge 18446744073709551615\n"
+      "property list uchar int a\nend_header\n" +
+          std::string(10, '\0'),
+      "truncated: expected at least 18446744073709551615 bytes of edge data, "
+      "got 10");
+  ExpectInputError(
+      "ply\nformat binary_little_endian 1.0\nelement edge 18446744073709551615\n"
+      "property double a\nend_header\n",
+      "truncated: expected 18446744073709551615 x 8 bytes of edge data, got 0");
+  ExpectInputError(
+      "ply\nformat ascii 1.0\nelement edge 18446744073709551615\n"
+      "property list uchar int a\nend_header\n1 2\n",
+      "truncated: 18446744073709551615 edge rows need at least");
+  // A count of 4 billion in a list of a binary file.
+  ExpectInputError(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty uchar x\n"
+      "element face 1\nproperty list uint int vertex_indices\nend_header\n"
+      "\x01\x02\x03" +
+          Bytes<uint32_t>(4000000000u) + std::string(12, '\0'),
+      "truncated: face 0: list vertex_indices of 4000000000 items needs "
+      "16000000000 bytes, got 12");
+  // An element without properties takes no bytes whatever its count: no endless loop.
+  const PlyMesh mesh = ParsePly(
+      "ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nend_header\n", "nothing.ply");
+  EXPECT_EQ(mesh.NumVertices(), 0u);
+}
+
+TEST(PlyRead, AsciiDataErrors) {
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property uchar red\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n";  // data starts on line 10
+  const std::string v = "0.5 0.5 1\n1.5 0.5 2\n0.5 1.5 3\n";
+  EXPECT_EQ(ParsePly(head + v + "3 0 1 2\n", "good.ply").faces.size(), 1u);
+  ExpectInputError(head + "0.5 0.5 1\n1.5 2\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 11 (vertex 1): too few values: red missing");
+  ExpectInputError(head + "0.5 0.5 1 7\n1.5 0.5 2\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 10 (vertex 0): more values than the element's properties, starting "
+                   "with '7'");
+  ExpectInputError(head + "0.5 abc 1\n1.5 0.5 2\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 10 (vertex 0): y: not a number: 'abc'");
+  ExpectInputError(head + "0.5 0.5 1\n1.5 0.5 300\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 11 (vertex 1): red: '300' is out of range for uchar");
+  ExpectInputError(head + "0.5 0.5 1\n1.5 0.5 -1\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 11 (vertex 1): red: '-1' is out of range for uchar");
+  ExpectInputError(head + "0.5 0.5 1.5\n1.5 0.5 2\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 10 (vertex 0): red: expected an integer (uchar), got '1.5'");
+  ExpectInputError(head + "0.5 1e39 1\n1.5 0.5 2\n0.5 1.5 3\n3 0 1 2\n",
+                   "line 10 (vertex 0): y: '1e39' is out of range for float");
+  ExpectInputError(head + "0.5 0x10 1\n1.5 0.5 2\n0.5 1.5 3\n3 0 1 2\n", "y: not a number: '0x10'");
+  ExpectInputError(head + "0.5 0.5 1\n1.5 0.5 2\n0.5 1.5 3\n",
+                   "truncated: 1 face rows need at least 4 values, but only 0 bytes of text "
+                   "follow");
+  ExpectInputError(head + "0.5 0.5 1\n1.5 0.5 2\n0.5 1.5 3\n\n\n\n\n\n\n\n",
+                   "truncated: the file ends after 0 of 1 face rows");
+  ExpectInputError(head + "0.5 0.5 1\n1.5 0.5 2\n\n\n\n\n",
+                   "truncated: the file ends after 2 of 3 vertex rows");
+  ExpectInputError(head + v + "3 0 1 3\n",
+                   "line 13 (face 0): vertex index 3 out of range (3 vertices)");
+  ExpectInputError(head + v + "3 0 -1 2\n",
+                   "line 13 (face 0): vertex index -1 out of range (3 vertices)");
+  // (Blank lines after the last row keep the data long enough for the minimum-size check.)
+  ExpectInputError(head + v + "2 0 1\n\n\n", "line 13 (face 0): 2 vertex indices, a face needs");
+  ExpectInputError(head + v + "3 0 1\n\n\n", "line 13 (face 0): too few values: vertex_indices");
+  ExpectInputError(head + v + "3 0 1 2 0\n", "line 13 (face 0): more values than");
+  ExpectInputError(head + v + "3 0 1.5 2\n", "vertex_indices: expected an integer (int)");
+  ExpectInputError(head + v + "256 0 1 2\n", "vertex_indices: '256' is out of range for uchar");
+  ExpectInputError(head + v + "255 0 1 2\n",
+                   "line 13 (face 0): list vertex_indices of 255 items is longer than its line");
+  ExpectInputError(head + v + "3 0 1 2\n0 0 0\n",
+                   "line 14: unexpected data after the last element: '0 0 0'");
+  ExpectInputError(
+      "ply\nformat ascii 1.0\nelement a 1\nproperty list char int v\nend_header\n-2 1 1\n",
+      "line 6 (a 0): list v has negative length -2");
+}
+
+TEST(PlyRead, MissingOrUnreadableFile) {
+  const fs::path dir = FreshDir("missing");
+  try {
+    ReadPly(dir / "none.ply");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.path(), dir / "none.ply");
+  }
+  EXPECT_THROW(ReadPly(dir), InputError);  // a folder
+}
+
+TEST(PlyWrite, AtomicWriteLeavesNoTemporaryFile) {
+  const fs::path dir = FreshDir("atomic");
+  const fs::path path = dir / "scene.ply";
+  PlyMesh mesh = EveryTypeMesh();
+  for (const PlyFormat format :
+       {PlyFormat::kAscii, PlyFormat::kBinaryLittleEndian, PlyFormat::kBinaryBigEndian}) {
+    WritePly(path, mesh, format);  // the second and third overwrite
+    EXPECT_EQ(ListDir(dir), std::vector<fs::path>{"scene.ply"});
+    EXPECT_EQ(ReadFile(path), SerializePly(mesh, format));
+    ExpectSameMesh(mesh, ReadPly(path));
+  }
+  // A folder in the way: OutputError, and still no temporary file left.
+  fs::create_directories(dir / "blocked.ply" / "x");
+  EXPECT_THROW(WritePly(dir / "blocked.ply", mesh), OutputError);
+  std::vector<fs::path> files = ListDir(dir);
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<fs::path>{"blocked.ply", "scene.ply"}));
+}
+
+// Every proper prefix and a few thousand deterministic mutations of valid files either
+// parse into a consistent mesh or throw InputError; nothing else (crash, other exception,
+// huge allocation).
+TEST(PlyRead, FuzzPrefixesAndMutations) {
+  PlyMesh mesh = EveryTypeMesh();
+  mesh.faces.emplace_back(0, 1, 2);
+  std::mt19937 rng(12345);
+  const std::string special =
+      std::string(" \n\r\t0123456789-+.e", 18) + std::string(1, '\0') + "\xff\x7f\x80";
+  for (const PlyFormat format :
+       {PlyFormat::kAscii, PlyFormat::kBinaryLittleEndian, PlyFormat::kBinaryBigEndian}) {
+    std::string valid = SerializePly(mesh, format);
+    // A skipped element with a list, so that mutations reach that code too.
+    const std::string marker = "end_header\n";
+    if (format == PlyFormat::kAscii) {
+      valid.insert(valid.find(marker), "element extra 2\nproperty list uchar short s\n");
+      valid += "2 -1 7\n0\n";
+    } else {
+      const bool big = format == PlyFormat::kBinaryBigEndian;
+      valid.insert(valid.find(marker), "element extra 2\nproperty list uchar short s\n");
+      valid +=
+          Bytes<uint8_t>(2) + Bytes<int16_t>(-1, big) + Bytes<int16_t>(7, big) + Bytes<uint8_t>(0);
+    }
+    ASSERT_NO_THROW(ParsePly(valid, "valid.ply"));
+    const size_t last_line_start = valid.rfind('\n', valid.size() - 2) + 1;
+
+    int parsed = 0, rejected = 0;
+    for (size_t length = 0; length < valid.size(); ++length) {
+      try {
+        const PlyMesh read = ParsePly(valid.substr(0, length), "prefix.ply");
+        EXPECT_EQ(read.Check(), "");
+        // An ASCII file cut inside its last line can still be valid; anything shorter not.
+        EXPECT_TRUE(format == PlyFormat::kAscii && length >= last_line_start) << length;
+        ++parsed;
+      } catch (const InputError&) {
+        ++rejected;
+      }
+    }
+    EXPECT_GT(rejected, 100);
+
+    for (int trial = 0; trial < 1500; ++trial) {
+      std::string data = valid;
+      const int edits = 1 + static_cast<int>(rng() % 3);
+      for (int e = 0; e < edits; ++e) {
+        const size_t at = rng() % data.size();
+        switch (rng() % 3) {
+          case 0:
+            data[at] = static_cast<char>(data[at] ^ (1 << (rng() % 8)));
+            break;
+          case 1:
+            data[at] = special[rng() % special.size()];
+            break;
+          default:
+            data.erase(at, 1 + rng() % 4);
+            break;
+        }
+        if (data.empty()) data = "p";
+      }
+      try {
+        const PlyMesh read = ParsePly(data, "mutated.ply");
+        EXPECT_EQ(read.Check(), "") << "trial " << trial;
+        ++parsed;
+      } catch (const InputError&) {
+        ++rejected;
+      }
+    }
+    std::printf("[ PLY fuzz ] %s: %zu prefixes and 1500 mutated files: %d parsed, %d rejected\n",
+                format == PlyFormat::kAscii ? "ascii" : "binary", valid.size(), parsed, rejected);
+    // Both outcomes occur: the mutations are neither all harmless nor all fatal.
+    EXPECT_GT(parsed, 50);
+    EXPECT_GT(rejected, 500);
+  }
+}
+
+// A mesh like reconstruction writes: positions, normals, colour, temperature, confidence
+// (11 properties) on a strip of 2n - 4 triangles.
+PlyMesh StripMesh(size_t n) {
+  std::vector<Eigen::Vector3d> positions(n), normals(n);
+  std::vector<Rgb8> colors(n);
+  std::vector<double> temperature_c(n), confidence(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double a = static_cast<double>(i) * 1e-3;
+    positions[i] = Eigen::Vector3d(std::sin(a), std::cos(a), a * 1e-3);
+    normals[i] = Eigen::Vector3d(std::cos(a), -std::sin(a), 0.0);
+    colors[i] = Rgb8(static_cast<uint8_t>(i), static_cast<uint8_t>(i >> 8), 7);
+    temperature_c[i] = 20.0 + std::sin(a * 7.0);
+    confidence[i] = std::fmod(a, 1.0);
+  }
+  PlyMesh mesh;
+  mesh.SetPositions(positions);
+  mesh.SetNormals(normals);
+  mesh.SetColors(colors);
+  mesh.AddProperty("temperature_c", PlyType::kFloat32, std::move(temperature_c));
+  mesh.AddProperty("confidence", PlyType::kFloat32, std::move(confidence));
+  mesh.faces.resize(2 * n - 4);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const int i = static_cast<int>(f / 2);
+    mesh.faces[f] = f % 2 ? Eigen::Vector3i(i, i + 2, i + 1) : Eigen::Vector3i(i, i + 1, i + 2);
+  }
+  return mesh;
+}
+
+// Measures (and prints) read and write speed: binary for 1M vertices and 2M faces, ASCII
+// for 200k vertices (it is slower, and the test must stay fast). No timing assertion:
+// machines and their load differ; the numbers go to the log, as wall and CPU time.
+TEST(PlySpeed, OneMillionVertices) {
+  const fs::path dir = FreshDir("speed");
+  using Clock = std::chrono::steady_clock;
+  struct Timer {
+    Clock::time_point wall = Clock::now();
+    std::clock_t cpu = std::clock();
+    std::string Stop(double per) const {
+      const double wall_s = std::chrono::duration<double>(Clock::now() - wall).count();
+      const double cpu_s = static_cast<double>(std::clock() - cpu) / CLOCKS_PER_SEC;
+      char text[96];
+      std::snprintf(text, sizeof(text), "%.3f s (cpu %.3f s; %.2f s per 1M vertices)", wall_s,
+                    cpu_s, cpu_s * per);
+      return text;
+    }
+  };
+  for (const auto& [format, n] : {std::pair{PlyFormat::kBinaryLittleEndian, size_t{1000000}},
+                                  std::pair{PlyFormat::kAscii, size_t{200000}}}) {
+    const PlyMesh mesh = StripMesh(n);
+    const double per = 1e6 / static_cast<double>(n);
+    const fs::path path = dir / "big.ply";
+    Timer timer;
+    WritePly(path, mesh, format);
+    const std::string write = timer.Stop(per);
+    timer = Timer();
+    const PlyMesh read = ReadPly(path);
+    const std::string read_text = timer.Stop(per);
+    std::printf(
+        "[ PLY speed ] %s, %zu vertices (11 properties), %zu faces, %.1f MB:\n"
+        "[ PLY speed ]   write %s\n[ PLY speed ]   read  %s\n",
+        format == PlyFormat::kAscii ? "ascii" : "binary_little_endian", n, mesh.faces.size(),
+        static_cast<double>(fs::file_size(path)) / 1e6, write.c_str(), read_text.c_str());
+    ASSERT_EQ(read.NumVertices(), n);
+    ASSERT_EQ(read.faces.size(), mesh.faces.size());
+    EXPECT_EQ(read.faces.back(), mesh.faces.back());
+    EXPECT_EQ(read.Get("temperature_c").values[n / 2],
+              PlyRepresentable(PlyType::kFloat32, mesh.Get("temperature_c").values[n / 2]));
+    EXPECT_EQ(read.Colors()[12345], mesh.Colors()[12345]);
+  }
+  fs::remove_all(dir);  // tens of MB
+}
+
+}  // namespace
+}  // namespace hw::core

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/atomic_file.h"
 #include "core/cameramodel_io.h"
 #include "core/error.h"
 #include "core/ply.h"
