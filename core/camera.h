@@ -56,14 +56,17 @@ struct CameraModel {
                           Eigen::Matrix2d* J_xy = nullptr,
                           Eigen::Matrix<double, 2, Eigen::Dynamic>* J_dist = nullptr) const;
 
-  // Inverse of Distort by Gauss-Newton from the undistorted guess. Returns nullopt when it
-  // does not converge to options.tolerance_px (expressed in pixels through fx, fy), which
-  // happens far outside the image where the polynomial model folds over.
+  // Inverse of Distort: Newton from the distorted point, then a continuation from the centre
+  // when that fails (each phase up to options.max_iterations). Only the physical preimage is
+  // returned — the one on the monotone branch from the centre, proven so, never a solution
+  // beyond a fold of the polynomial model. Returns nullopt when it does not converge to
+  // options.tolerance_px (in pixels through fx, fy), e.g. far outside a strongly distorted
+  // image. Callers must have checked the model with Check().
   std::optional<Eigen::Vector2d> Undistort(const Eigen::Vector2d& xy_distorted,
                                            const UndistortOptions& options = {}) const;
 
-  // Projects a point in the camera frame (metres) to pixels. Requires z > 0 (asserted
-  // only as finite output; callers must cull points behind the camera).
+  // Projects a point in the camera frame (metres) to pixels. Not asserted: callers must cull
+  // z <= 0, which gives meaningless or infinite pixels.
   // J_point: d(pixel)/d(point_in_camera), 2x3. J_params: d(pixel)/d(Params()), 2xNumParams.
   Eigen::Vector2d Project(const Eigen::Vector3d& point_in_camera,
                           Eigen::Matrix<double, 2, 3>* J_point = nullptr,
