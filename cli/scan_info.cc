@@ -1,5 +1,338 @@
+// heatwave scan-info: validates a scan folder and summarises its streams.
+#include "cli/scan_info.h"
+
+#include <algorithm>
+#include <cassert>
+#include <charconv>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <iostream>
+
 #include "cli/command.h"
+#include "core/progress.h"
+
 namespace hw::cli {
-// placeholder: being written
-int RunScanInfo(int, char**) { return kExitFailure; }
+
+namespace {
+
+// At most this many unloadable frames are listed in the text report.
+constexpr size_t kMaxListedProblems = 20;
+
+std::string Printf(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Printf(const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  va_list copy;
+  va_copy(copy, args);
+  const int size = std::vsnprintf(nullptr, 0, format, copy);
+  va_end(copy);
+  std::string out(static_cast<size_t>(std::max(size, 0)) + 1, '\0');
+  std::vsnprintf(out.data(), out.size(), format, args);
+  va_end(args);
+  out.resize(static_cast<size_t>(std::max(size, 0)));
+  return out;
+}
+
+std::string JsonString(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '"') {
+      out += "\\\"";
+    } else if (c == '\\') {
+      out += "\\\\";
+    } else if (u < 0x20 || u == 0x7f) {
+      out += Printf("\\u%04x", u);
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+// The shortest text that reads back as the same double.
+std::string JsonNumber(double value) {
+  if (!std::isfinite(value)) return "null";
+  char buf[64];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), value);
+  assert(ec == std::errc());
+  return std::string(buf, end);
+}
+
+// "key": value pairs joined into an object.
+class JsonObject {
+ public:
+  JsonObject& Add(const std::string& key, const std::string& raw_value) {
+    body_ += (body_.empty() ? "" : ", ") + JsonString(key) + ": " + raw_value;
+    return *this;
+  }
+  JsonObject& Number(const std::string& key, double value) { return Add(key, JsonNumber(value)); }
+  JsonObject& Int(const std::string& key, int64_t value) { return Add(key, std::to_string(value)); }
+  JsonObject& Bool(const std::string& key, bool value) {
+    return Add(key, value ? "true" : "false");
+  }
+  JsonObject& String(const std::string& key, const std::string& value) {
+    return Add(key, JsonString(value));
+  }
+  std::string str() const { return "{" + body_ + "}"; }
+
+ private:
+  std::string body_;
+};
+
+std::string JsonArray(const std::vector<std::string>& items, const std::string& indent) {
+  if (items.empty()) return "[]";
+  std::string out = "[\n";
+  for (size_t i = 0; i < items.size(); ++i) {
+    out += indent + "  " + items[i] + (i + 1 < items.size() ? ",\n" : "\n");
+  }
+  return out + indent + "]";
+}
+
+}  // namespace
+
+std::string ScanInfoOptions::Check() const {
+  if (scan_folder.empty()) return "scan_folder: must be given";
+  if (max_association_dt_s &&
+      !(std::isfinite(*max_association_dt_s) && *max_association_dt_s > 0)) {
+    return "max_association_dt_s (--max-dt): must be > 0, got " +
+           std::to_string(*max_association_dt_s);
+  }
+  if (!(std::isfinite(gap_factor) && gap_factor > 1)) {
+    return "gap_factor (--gap-factor): must be > 1, got " + std::to_string(gap_factor);
+  }
+  if (threads < 0) return "threads (--threads): must be >= 0, got " + std::to_string(threads);
+  return "";
+}
+
+ScanInfoReport InspectScan(const ScanInfoOptions& options) {
+  assert(options.Check().empty());
+  core::ScanOptions scan_options;
+  scan_options.rig_path = options.rig_path;
+  scan_options.max_association_dt_s = options.max_association_dt_s;
+  scan_options.gap_factor = options.gap_factor;
+  const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
+
+  ScanInfoReport report;
+  report.summary = core::SummarizeScan(scan);
+  report.total_frames = core::TotalFrames(scan);
+  if (options.check_frames) {
+    core::ProgressBar progress("frames", report.total_frames, "frames", options.quiet);
+    report.frame_problems = core::CheckFrames(
+        scan, [&] { progress.Advance(); }, options.threads);
+    progress.Finish();
+    report.frames_checked = true;
+  }
+  return report;
+}
+
+std::string FormatScanInfo(const ScanInfoReport& report) {
+  const core::ScanSummary& s = report.summary;
+  std::string out;
+  out += "Scan     " + s.folder.string() + "\n";
+  out += "Rig      " + s.rig_path.string() + Printf("  (depth_scale %g units/m)\n", s.depth_scale);
+  out += "\n";
+  out += Printf("%-8s %6s  %-17s %8s %8s %5s %9s %8s %9s\n", "Stream", "Frames", "Start (s)",
+                "Span (s)", "Rate Hz", "Gaps", "Longest s", "Missing", "Offset s");
+  std::string pairing;
+  for (const core::StreamSummary& st : s.streams) {
+    const std::string name = core::StreamName(st.stream);
+    if (!st.has_index) {
+      out += Printf("%-8s %6s  no %s.txt\n", name.c_str(), "-", name.c_str());
+      continue;
+    }
+    out += Printf("%-8s %6d  %-17.6f %8.3f %8.2f %5d %9.4f %8d %+9.4f\n", name.c_str(), st.frames,
+                  st.start_s, st.span_s, st.median_rate_hz, st.gaps, st.largest_interval_s,
+                  st.missing_files, st.time_offset_s);
+    if (st.stream != core::Stream::kDepth) {
+      pairing += Printf("Paired   %d of %d depth frames have a %s frame within %.4f s\n",
+                        st.associated_depth_frames, s.streams[0].frames, name.c_str(),
+                        st.max_association_dt_s);
+    }
+  }
+  out += pairing;
+  out += "\n";
+  out += Printf("%-8s %-8s %-10s %9s %9s %4s %13s %15s\n", "Camera", "Model", "Size", "fx", "fy",
+                "Dist", "Baseline (m)", "Rotation (deg)");
+  for (const core::CameraSummary& c : s.cameras) {
+    const bool reference = c.name == "depth";
+    out += Printf("%-8s %-8s %-10s %9.2f %9.2f %4d %13s %15s\n", c.name.c_str(), c.model.c_str(),
+                  (std::to_string(c.width) + "x" + std::to_string(c.height)).c_str(), c.fx, c.fy,
+                  c.distortion_coefficients, reference ? "-" : Printf("%.4f", c.baseline_m).c_str(),
+                  reference ? "-" : Printf("%.3f", c.rotation_deg).c_str());
+  }
+  if (s.thermal_settings) {
+    const core::ThermalSettings& t = *s.thermal_settings;
+    out += Printf(
+        "Thermal  apparent °C = %g x raw %c %g; band %g-%g µm; NETD %g K\n"
+        "         scene defaults: emissivity %g, reflected apparent temperature %g °C\n",
+        t.raw_scale, t.raw_offset < 0 ? '-' : '+', std::abs(t.raw_offset), t.spectral_band_um[0],
+        t.spectral_band_um[1], t.netd_k, t.emissivity, t.reflected_c);
+  }
+  out += "\n";
+  if (s.has_groundtruth) {
+    out +=
+        Printf("Ground truth  %d poses over %.3f s\n", s.groundtruth_poses, s.groundtruth_span_s);
+  } else {
+    out += "Ground truth  none\n";
+  }
+  out += Printf("FFC events    %d\n", s.ffc_events);
+  if (!s.warnings.empty()) {
+    out += Printf("\nWarnings (%zu):\n", s.warnings.size());
+    for (const std::string& w : s.warnings) out += "  " + w + "\n";
+  }
+  if (report.frames_checked) {
+    if (report.frame_problems.empty()) {
+      out += Printf("\nFrames   all %d frames load\n", report.total_frames);
+    } else {
+      out += Printf("\nFrames   %zu of %d frames cannot be loaded:\n", report.frame_problems.size(),
+                    report.total_frames);
+      for (size_t i = 0; i < report.frame_problems.size() && i < kMaxListedProblems; ++i) {
+        out += "  " + report.frame_problems[i].message + "\n";
+      }
+      if (report.frame_problems.size() > kMaxListedProblems) {
+        out += Printf("  ... and %zu more\n", report.frame_problems.size() - kMaxListedProblems);
+      }
+    }
+  }
+  out += "\n";
+  if (report.frame_problems.empty()) {
+    out += s.warnings.empty() ? "OK: valid scan\n"
+                              : Printf("OK: valid scan, %zu warning(s)\n", s.warnings.size());
+  } else {
+    out += "FAILED: some frames cannot be loaded\n";
+  }
+  return out;
+}
+
+std::string FormatScanInfoJson(const ScanInfoReport& report) {
+  const core::ScanSummary& s = report.summary;
+  std::vector<std::string> streams;
+  for (const core::StreamSummary& st : s.streams) {
+    JsonObject o;
+    o.String("name", core::StreamName(st.stream))
+        .Bool("has_index", st.has_index)
+        .Int("frames", st.frames)
+        .Number("start_s", st.start_s)
+        .Number("end_s", st.end_s)
+        .Number("span_s", st.span_s)
+        .Number("median_rate_hz", st.median_rate_hz)
+        .Int("gaps", st.gaps)
+        .Number("largest_interval_s", st.largest_interval_s)
+        .Int("missing_files", st.missing_files)
+        .Number("time_offset_s", st.time_offset_s);
+    if (st.stream != core::Stream::kDepth) {
+      o.Int("associated_depth_frames", st.associated_depth_frames)
+          .Number("max_association_dt_s", st.max_association_dt_s);
+    }
+    streams.push_back(o.str());
+  }
+  std::vector<std::string> cameras;
+  for (const core::CameraSummary& c : s.cameras) {
+    cameras.push_back(JsonObject()
+                          .String("name", c.name)
+                          .String("model", c.model)
+                          .Int("width", c.width)
+                          .Int("height", c.height)
+                          .Number("fx", c.fx)
+                          .Number("fy", c.fy)
+                          .Int("distortion_coefficients", c.distortion_coefficients)
+                          .Number("baseline_m", c.baseline_m)
+                          .Number("rotation_deg", c.rotation_deg)
+                          .Number("time_offset_s", c.time_offset_s)
+                          .str());
+  }
+  std::vector<std::string> warnings;
+  for (const std::string& w : s.warnings) warnings.push_back(JsonString(w));
+  std::vector<std::string> problems;
+  for (const core::FrameProblem& p : report.frame_problems) {
+    problems.push_back(JsonObject()
+                           .String("stream", core::StreamName(p.stream))
+                           .Int("index", p.index)
+                           .String("path", p.path.string())
+                           .String("message", p.message)
+                           .str());
+  }
+  std::string out = "{\n";
+  out += "  \"valid\": " + std::string(report.frame_problems.empty() ? "true" : "false") + ",\n";
+  out += "  \"folder\": " + JsonString(s.folder.string()) + ",\n";
+  out += "  \"rig_path\": " + JsonString(s.rig_path.string()) + ",\n";
+  out += "  \"depth_scale\": " + JsonNumber(s.depth_scale) + ",\n";
+  out += "  \"streams\": " + JsonArray(streams, "  ") + ",\n";
+  out += "  \"cameras\": " + JsonArray(cameras, "  ") + ",\n";
+  if (s.thermal_settings) {
+    const core::ThermalSettings& t = *s.thermal_settings;
+    out += "  \"thermal\": " +
+           JsonObject()
+               .Number("raw_scale", t.raw_scale)
+               .Number("raw_offset", t.raw_offset)
+               .Add("spectral_band_um", "[" + JsonNumber(t.spectral_band_um[0]) + ", " +
+                                            JsonNumber(t.spectral_band_um[1]) + "]")
+               .Number("netd_k", t.netd_k)
+               .Number("emissivity", t.emissivity)
+               .Number("reflected_c", t.reflected_c)
+               .str() +
+           ",\n";
+  }
+  out += "  \"groundtruth_poses\": " +
+         (s.has_groundtruth ? std::to_string(s.groundtruth_poses) : std::string("null")) + ",\n";
+  out += "  \"groundtruth_span_s\": " +
+         (s.has_groundtruth ? JsonNumber(s.groundtruth_span_s) : std::string("null")) + ",\n";
+  out += "  \"ffc_events\": " + std::to_string(s.ffc_events) + ",\n";
+  out += "  \"warnings\": " + JsonArray(warnings, "  ") + ",\n";
+  out += "  \"total_frames\": " + std::to_string(report.total_frames) + ",\n";
+  out += "  \"frames_checked\": " + std::string(report.frames_checked ? "true" : "false") + ",\n";
+  out += "  \"frame_problems\": " + JsonArray(problems, "  ") + "\n";
+  out += "}\n";
+  return out;
+}
+
+int RunScanInfo(int argc, char** argv) {
+  CLI::App app(
+      "Validate a scan folder (scan-format.md) and summarise it: streams (frames, time span, "
+      "rate, gaps, missing files, pairing with depth), rig, ground truth, warnings.\n"
+      "Exit code 0: valid scan (warnings allowed); 1: invalid scan, or with --check-frames "
+      "frames that cannot be loaded; 2: bad usage.",
+      "heatwave scan-info");
+  ScanInfoOptions options;
+  CommonOptions common;
+  double max_dt_s = 0;
+  app.add_option("scan", options.scan_folder, "scan folder")->required();
+  app.add_option("--rig", options.rig_path,
+                 "rig.yaml to use instead of SCAN/rig.yaml (e.g. for a TUM RGB-D sequence)");
+  CLI::Option* max_dt_option = app.add_option(
+      "--max-dt", max_dt_s,
+      "largest |dt| in seconds pairing depth with rgb/thermal frames (default: half the median "
+      "frame period of the slower stream)");
+  app.add_option("--gap-factor", options.gap_factor,
+                 "report intervals longer than this many median frame periods as gaps")
+      ->capture_default_str();
+  app.add_flag("--check-frames", options.check_frames,
+               "decode every frame and report those that cannot be loaded");
+  app.add_option("--threads", options.threads, "threads for --check-frames (0: all cores)")
+      ->capture_default_str();
+  app.add_flag("--json", options.json, "print the report as JSON on stdout (also with --quiet)");
+  AddCommonOptions(app, common);
+  if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  options.quiet = common.quiet;
+  if (max_dt_option->count() > 0) options.max_association_dt_s = max_dt_s;
+
+  return RunGuarded([&] {
+    ThrowIfInvalid(options.Check());
+    const ScanInfoReport report = InspectScan(options);
+    if (options.json) {
+      std::cout << FormatScanInfoJson(report) << std::flush;
+    } else if (!options.quiet) {
+      std::cout << FormatScanInfo(report) << std::flush;
+    }
+    if (!report.frame_problems.empty()) {
+      std::cerr << "error: " << report.frame_problems.size() << " of " << report.total_frames
+                << " frames cannot be loaded; first: " << report.frame_problems[0].message << "\n";
+      return kExitFailure;
+    }
+    return kExitOk;
+  });
+}
+
 }  // namespace hw::cli

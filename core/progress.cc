@@ -64,6 +64,7 @@ void ProgressBar::Draw(bool force) {
     last_decile_ = decile;
   }
   last_draw_ = now;
+  drawn_done_ = done_;
   const double rate = elapsed > 0 ? static_cast<double>(done_) / elapsed : 0.0;
   const double eta =
       rate > 0 ? static_cast<double>(total_ - done_) / rate : std::numeric_limits<double>::quiet_NaN();
@@ -79,8 +80,8 @@ void ProgressBar::Draw(bool force) {
 void ProgressBar::Finish() {
   if (finished_) return;
   if (!quiet_) {
-    if (!tty_) last_decile_ = -1;
-    Draw(true);
+    // A log (not a terminal) already has the line for this state unless done_ moved since.
+    if (tty_ || done_ != drawn_done_) Draw(true);
     if (tty_) std::fputc('\n', stderr);
     std::fflush(stderr);
   }

@@ -35,6 +35,7 @@ class ProgressBar {
   std::string unit_;
   int64_t total_;
   int64_t done_ = 0;
+  int64_t drawn_done_ = -1;  // done_ at the last draw
   bool quiet_;
   bool tty_;
   bool finished_ = false;

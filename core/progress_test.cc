@@ -52,3 +52,22 @@ TEST(Progress, ClampsToTotal) {
 
 }  // namespace
 }  // namespace hw::core
+
+namespace hw::core {
+namespace {
+
+TEST(Progress, LogOutputHasNoDuplicateFinalLine) {
+  // Under ctest stderr is not a terminal: one line per 10 %, and the final state once.
+  ::testing::internal::CaptureStderr();
+  {
+    ProgressBar bar("frames", 20, "frames");
+    for (int i = 0; i < 20; ++i) bar.Advance();
+  }
+  const std::string out = ::testing::internal::GetCapturedStderr();
+  size_t count = 0;
+  for (size_t pos = out.find("20/20"); pos != std::string::npos; pos = out.find("20/20", pos + 1)) ++count;
+  EXPECT_EQ(count, 1u) << out;
+}
+
+}  // namespace
+}  // namespace hw::core
