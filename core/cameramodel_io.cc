@@ -1,6 +1,5 @@
 #include "core/cameramodel_io.h"
 
-#include <algorithm>
 #include <array>
 #include <cassert>
 #include <charconv>
@@ -75,19 +74,23 @@ std::string LensModelName(const mrcal_lensmodel_t& lensmodel) {
   return unconfigured != nullptr ? unconfigured : "unknown";
 }
 
-// libmrcal 2.2's parser reads past the terminating 0 of its input on some malformed texts
-// (valgrind: "invalid read ... after a block", in the copy it makes when given a length).
-// So it gets a 0-terminated copy (length 0 means "up to the 0") followed by this many more
-// zero bytes, which such over-reads hit instead of foreign memory.
-constexpr size_t kMrcalPadding = 4096;
+// libmrcal 2.2's parser does not stop at the terminating 0 in two of its patterns: a
+// '#' comment runs to the next '\n' and a quoted string to the next quote, wherever in
+// memory they are (mrcal_read_cameramodel_string("#", 1) segfaults; valgrind shows the
+// over-reads; newer mrcal excludes \x00 there). Elsewhere it may read one byte past the 0
+// before failing. So mrcal gets the text with a '\n' appended (ends a
+// final comment; harmless otherwise), the 0, a quote of each kind (ends a runaway string,
+// after which the parser fails on the quote that follows) and zeros for the one-byte
+// over-reads. Length 0 tells mrcal to read up to the first 0.
+constexpr char kMrcalTerminator[] = "\n\0'\"\0\0\0\0\0\0\0";
 
 // mrcal's parser on `text`; nullptr when it rejects it (it then prints why to stderr).
 // `text` must hold no 0 byte.
 MrcalModelPtr ParseWithMrcal(const std::string& text) {
   assert(!text.empty() && text.find('\0') == std::string::npos);
-  std::vector<char> padded(text.size() + 1 + kMrcalPadding, '\0');
-  std::copy(text.begin(), text.end(), padded.begin());
-  return MrcalModelPtr(mrcal_read_cameramodel_string(padded.data(), 0));
+  std::string padded = text;
+  padded.append(kMrcalTerminator, sizeof(kMrcalTerminator));
+  return MrcalModelPtr(mrcal_read_cameramodel_string(padded.c_str(), 0));
 }
 
 }  // namespace
@@ -138,8 +141,9 @@ std::string FormatMrcalCameraModel(const CameraModel& camera, const Rigid3d& cam
   text += "{\n";
   text += "    'lensmodel':  '" + MrcalLensModelName(camera) + "',\n";
   text += "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,....\n";
-  text += "    'intrinsics': " +
-          FormatList(intrinsics.data(), static_cast<int>(intrinsics.size())) + ",\n";
+  text +=
+      "    'intrinsics': " + FormatList(intrinsics.data(), static_cast<int>(intrinsics.size())) +
+      ",\n";
   text += "    # extrinsics are rt_cam_ref: Rodrigues rotation (rad), then translation (m)\n";
   text += "    'extrinsics': " + FormatList(rt.data(), 6) + ",\n";
   text += "    'imagersize': [ " + std::to_string(camera.width) + ", " +
@@ -204,8 +208,8 @@ MrcalCameraModel ParseMrcalCameraModel(const std::string& text, const fs::path& 
 
   for (int i = 0; i < 2; ++i) {
     if (model->imagersize[i] > static_cast<unsigned>(INT_MAX)) {
-      throw InputError(path, "imagersize: " + std::to_string(model->imagersize[i]) +
-                                 " is too large");
+      throw InputError(path,
+                       "imagersize: " + std::to_string(model->imagersize[i]) + " is too large");
     }
   }
   camera.width = static_cast<int>(model->imagersize[0]);

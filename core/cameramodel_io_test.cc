@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -111,22 +112,24 @@ TEST(RodriguesTest, MatchesEigenAngleAxisAndRoundTrips) {
   std::uniform_real_distribution<double> uniform(0, M_PI);
   double max_error = 0;
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector3d axis = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    const Eigen::Vector3d axis =
+        Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
     const double angle = uniform(rng);
     const Eigen::Vector3d r = axis * angle;
     const Eigen::Quaterniond q = QuaternionFromRodrigues(r);
     // Against Eigen's rotation matrix of the same axis-angle.
-    max_error = std::max(max_error, (q.toRotationMatrix() -
-                                     Eigen::AngleAxisd(angle, axis).toRotationMatrix())
-                                        .cwiseAbs()
-                                        .maxCoeff());
+    max_error = std::max(max_error,
+                         (q.toRotationMatrix() - Eigen::AngleAxisd(angle, axis).toRotationMatrix())
+                             .cwiseAbs()
+                             .maxCoeff());
     max_error = std::max(max_error, (RodriguesFromQuaternion(q) - r).norm());
     // Either sign of the quaternion is the same rotation.
-    max_error = std::max(max_error, (RodriguesFromQuaternion(Eigen::Quaterniond(-q.coeffs())) -
-                                     r).norm());
+    max_error =
+        std::max(max_error, (RodriguesFromQuaternion(Eigen::Quaterniond(-q.coeffs())) - r).norm());
   }
   // A few ulps of pi.
   EXPECT_LT(max_error, 4e-15);
+  RecordProperty("max_error", (std::ostringstream() << max_error).str());
 }
 
 TEST(RodriguesTest, KeepsRelativePrecisionForTinyAngles) {
@@ -164,9 +167,9 @@ TEST(RodriguesTest, IsExactNearPi) {
   EXPECT_EQ(r.z(), 0);
   // Beyond pi (mrcal may store any r): the same rotation as 2 pi - angle the other way.
   const Eigen::Vector3d r_long = axis * (1.5 * M_PI);
-  EXPECT_LT(AngleBetween(QuaternionFromRodrigues(r_long),
-                         QuaternionFromRodrigues(-axis * (0.5 * M_PI))),
-            1e-15);
+  EXPECT_LT(
+      AngleBetween(QuaternionFromRodrigues(r_long), QuaternionFromRodrigues(-axis * (0.5 * M_PI))),
+      1e-15);
 }
 
 TEST(RodriguesTest, AgreesWithTheSe3Logarithm) {
@@ -185,8 +188,7 @@ TEST(RodriguesTest, AgreesWithTheSe3Logarithm) {
 
 TEST(CameraModelIoTest, NamesMrcalLensModels) {
   for (const LensModel& model : kLensModels) {
-    EXPECT_EQ(MrcalLensModelName(MakeCamera(model.type, model.num_distortion)),
-              model.mrcal_name);
+    EXPECT_EQ(MrcalLensModelName(MakeCamera(model.type, model.num_distortion)), model.mrcal_name);
   }
 }
 
@@ -212,8 +214,8 @@ TEST(CameraModelIoTest, RoundTripsEveryLensModelWithAndWithoutExtrinsics) {
       EXPECT_EQ(back.camera.height, camera.height);
       EXPECT_EQ(back.camera.Params(), camera.Params());
       // Extrinsics go through the Rodrigues vector: equal to rounding.
-      const double rotation_error = AngleBetween(back.camera_from_ref.rotation,
-                                                 extrinsics[e].rotation);
+      const double rotation_error =
+          AngleBetween(back.camera_from_ref.rotation, extrinsics[e].rotation);
       const double translation_error =
           (back.camera_from_ref.translation - extrinsics[e].translation).norm();
       EXPECT_LT(rotation_error, 1e-12);
@@ -226,7 +228,7 @@ TEST(CameraModelIoTest, RoundTripsEveryLensModelWithAndWithoutExtrinsics) {
       }
     }
   }
-  RecordProperty("max_rotation_error_rad", std::to_string(max_rotation_error));
+  RecordProperty("max_rotation_error_rad", (std::ostringstream() << max_rotation_error).str());
   // Only the file: the temporary was renamed.
   for (const auto& entry : fs::directory_iterator(dir)) {
     EXPECT_EQ(entry.path().extension(), ".cameramodel");
@@ -275,9 +277,9 @@ TEST(CameraModelIoTest, ParsesAHandWrittenModel) {
   EXPECT_LT((x_in_camera - Eigen::Vector3d::UnitY()).norm(), 1e-15);
   EXPECT_EQ(model.camera_from_ref.translation, Eigen::Vector3d(0.1, -0.2, 0.3));
   // And the point x_ref = (1, 0, 0) lands at R x + t.
-  EXPECT_LT((model.camera_from_ref * Eigen::Vector3d::UnitX() - Eigen::Vector3d(0.1, 0.8, 0.3))
-                .norm(),
-            1e-15);
+  EXPECT_LT(
+      (model.camera_from_ref * Eigen::Vector3d::UnitX() - Eigen::Vector3d(0.1, 0.8, 0.3)).norm(),
+      1e-15);
 }
 
 TEST(CameraModelIoTest, ReadsWhatLibmrcalItselfWrites) {
@@ -301,8 +303,10 @@ TEST(CameraModelIoTest, ReadsWhatLibmrcalItselfWrites) {
   const MrcalCameraModel back = ReadMrcalCameraModel(path);
   EXPECT_EQ(back.camera.width, 1280);
   EXPECT_LT((back.camera.Params() - params).cwiseAbs().maxCoeff(), 0.5e-6 + 1e-12);
-  EXPECT_LT((RodriguesFromQuaternion(back.camera_from_ref.rotation) -
-             Eigen::Vector3d(0.1, -0.2, 0.3)).norm(), 1e-12);
+  EXPECT_LT(
+      (RodriguesFromQuaternion(back.camera_from_ref.rotation) - Eigen::Vector3d(0.1, -0.2, 0.3))
+          .norm(),
+      1e-12);
   EXPECT_EQ(back.camera_from_ref.translation, Eigen::Vector3d(1.5, -2.5, 0.25));
 }
 
@@ -371,6 +375,21 @@ TEST(CameraModelIoTest, MalformedFilesThrowInputError) {
   EXPECT_THAT(ParseError(good + std::string(1, '\0')), HasSubstr("holds 0 bytes"));
 }
 
+TEST(CameraModelIoTest, SurvivesLibmrcalOverreads) {
+  // libmrcal 2.2 scans an unterminated comment or string past the end of its input
+  // (ParseWithMrcal's padding stops it); under valgrind these crashed before the padding.
+  const std::string good =
+      "{'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [500, 501, 320, 240],"
+      " 'imagersize': [640, 480], 'extrinsics': [0, 0, 0, 0, 0, 0]}";
+  EXPECT_EQ(ParseError(good + "\n# a last comment without a newline"), "<no error>");
+  for (const std::string& text :
+       {std::string("#"), std::string("# comment"), std::string("'"), std::string("{'lensmodel"),
+        std::string("{'lensmodel': \"LENS"), good.substr(0, 20), std::string("{#")}) {
+    SCOPED_TRACE(text);
+    EXPECT_THAT(ParseError(text), HasSubstr("not a valid mrcal .cameramodel"));
+  }
+}
+
 TEST(CameraModelIoTest, FuzzTruncationsAndMutations) {
   const std::string valid = FormatMrcalCameraModel(
       MakeCamera(CameraModelType::kOpenCV, 5),
@@ -387,8 +406,8 @@ TEST(CameraModelIoTest, FuzzTruncationsAndMutations) {
       const int edits = 1 + static_cast<int>(rng() % 3);
       for (int e = 0; e < edits; ++e) {
         const size_t at = rng() % text.size();
-        const char c = rng() % 4 == 0 ? static_cast<char>(rng() % 256)
-                                      : specials[rng() % specials.size()];
+        const char c =
+            rng() % 4 == 0 ? static_cast<char>(rng() % 256) : specials[rng() % specials.size()];
         if (rng() % 2 == 0) {
           text[at] = c;
         } else {
