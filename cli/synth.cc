@@ -1,0 +1,369 @@
+// heatwave synth: renders a synthetic scan (fixtures/synth_scan.h) or a calibration session
+// (fixtures/calibration_sessions.h) with exact ground truth.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "cli/command.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "fixtures/calibration_sessions.h"
+#include "fixtures/scenes.h"
+#include "fixtures/synth_scan.h"
+
+namespace hw::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Printf(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Printf(const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  va_list copy;
+  va_copy(copy, args);
+  const int size = std::vsnprintf(nullptr, 0, format, copy);
+  va_end(copy);
+  std::string out(static_cast<size_t>(std::max(size, 0)) + 1, '\0');
+  std::vsnprintf(out.data(), out.size(), format, args);
+  va_end(args);
+  out.resize(static_cast<size_t>(std::max(size, 0)));
+  return out;
+}
+
+std::string Join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+std::string FormatBytes(uint64_t bytes) {
+  const double b = static_cast<double>(bytes);
+  if (b >= 1e9) return Printf("%.2f GB", b / 1e9);
+  if (b >= 1e6) return Printf("%.1f MB", b / 1e6);
+  if (b >= 1e3) return Printf("%.1f kB", b / 1e3);
+  return Printf("%llu B", static_cast<unsigned long long>(bytes));
+}
+
+// What a scan folder holds (scan-format.md, plus the sessions' target.yaml): removed by
+// --overwrite. Anything else in the folder is left alone.
+const std::vector<std::string>& ScanEntries() {
+  static const std::vector<std::string> entries = {
+      "rig.yaml",    "depth.txt", "rgb.txt", "thermal.txt", "ffc.txt", "groundtruth.txt",
+      "target.yaml", "depth",     "rgb",     "thermal",     "truth"};
+  return entries;
+}
+
+// Refuses a non-empty output folder unless overwrite; with overwrite, removes the scan
+// entries of the earlier scan so that no stale frame or truth file survives.
+void PrepareOutputFolder(const fs::path& out, bool overwrite) {
+  std::error_code ec;
+  if (!fs::exists(out, ec)) return;
+  if (!fs::is_directory(out, ec)) {
+    throw UsageError("--out " + out.string() + ": exists and is not a folder");
+  }
+  if (fs::is_empty(out, ec)) return;
+  if (!overwrite) {
+    throw UsageError("--out " + out.string() +
+                     ": folder is not empty; pass --overwrite to replace the scan in it");
+  }
+  for (const std::string& entry : ScanEntries()) {
+    fs::remove_all(out / entry, ec);
+    if (ec) throw core::OutputError(out / entry, "cannot remove: " + ec.message());
+  }
+}
+
+// A progress bar created at the first report, when the total is known.
+class LazyProgress {
+ public:
+  LazyProgress(std::string label, bool quiet) : label_(std::move(label)), quiet_(quiet) {}
+  void operator()(int done, int total) {
+    if (!bar_) bar_ = std::make_unique<core::ProgressBar>(label_, total, "frames", quiet_);
+    bar_->Set(done);
+  }
+  void Finish() {
+    if (bar_) bar_->Finish();
+  }
+
+ private:
+  std::string label_;
+  bool quiet_;
+  std::unique_ptr<core::ProgressBar> bar_;
+};
+
+std::string StreamLine(const char* name, int frames, double rate_hz, const std::string& extra) {
+  if (frames == 0) return Printf("  %-8s none\n", name);
+  return Printf("  %-8s %5d frames at %6.2f Hz%s\n", name, frames, rate_hz, extra.c_str());
+}
+
+std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
+                              const fixtures::SynthScanSummary& s) {
+  std::string out;
+  out += Printf("Scene      %s  (seed %llu, %s motion, noise %s)\n", s.scene.c_str(),
+                static_cast<unsigned long long>(o.seed), fixtures::MotionKindName(o.motion).c_str(),
+                o.noise ? "on" : "off");
+  out += Printf("Folder     %s  (%s)\n", s.folder.string().c_str(),
+                FormatBytes(s.bytes_written).c_str());
+  out += "Streams\n";
+  out += StreamLine("depth", s.depth_frames, o.depth_rate_hz,
+                    Printf(", %dx%d", static_cast<int>(std::lround(640 * o.image_scale)),
+                           static_cast<int>(std::lround(480 * o.image_scale))));
+  out += StreamLine("rgb", s.rgb_frames, o.rgb_rate_hz,
+                    Printf(", clock offset %+.3f s", o.rgb_time_offset_s));
+  out += StreamLine("thermal", s.thermal_frames, o.thermal_rate_hz,
+                    Printf(", clock offset %+.3f s, %s, %d FFC events", o.thermal_time_offset_s,
+                           o.thermal_encoding == core::ThermalEncoding::kRawCounts16 ? "raw counts"
+                                                                                     : "float TIFF",
+                           s.ffc_events));
+  out += Printf("Time span  %.6f .. %.6f s on the depth clock (%.3f s)\n", s.start_time_s,
+                s.end_time_s, s.end_time_s - s.start_time_s);
+  out += Printf("Motion     mean %.2f m/s, max %.2f m/s; mean %.0f deg/s, max %.0f deg/s\n",
+                s.motion.mean_speed_m_per_s, s.motion.max_speed_m_per_s,
+                s.motion.mean_rate_rad_per_s * 180 / std::numbers::pi,
+                s.motion.max_rate_rad_per_s * 180 / std::numbers::pi);
+  out +=
+      Printf("Rig        %s\n", o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
+                                              : "rig.yaml is the true rig");
+  out += Printf(
+      "Truth      groundtruth.txt (%d poses), truth/scene.ply (%d vertices, %d faces), "
+      "truth/hotspots.yaml\n",
+      s.depth_frames, s.mesh_vertices, s.mesh_faces);
+  out += Printf("Hotspots   %zu\n", s.hotspots.size());
+  for (const fixtures::HotspotTruth& h : s.hotspots) {
+    out += Printf("  %-22s %-4s %6.1f °C (%s %5.1f °C)  %9.5f m²  %6.3f x %6.3f m\n", h.id.c_str(),
+                  h.hot ? "hot" : "cold", h.temperature_c, h.hot ? ">=" : "<=", h.threshold_c,
+                  h.area_m2, h.length_m, h.width_m);
+  }
+  if (s.depth_pixels_out_of_range > 0 || s.thermal_pixels_saturated > 0) {
+    out += Printf(
+        "Clipped    %d depth pixels beyond the uint16 range, %d thermal pixels "
+        "saturated\n",
+        s.depth_pixels_out_of_range, s.thermal_pixels_saturated);
+  }
+  const int frames = s.depth_frames + s.rgb_frames + s.thermal_frames;
+  out += Printf("Done       %d frames in %s (%.1f frames/s)\n", frames,
+                core::ProgressBar::FormatDuration(s.seconds).c_str(),
+                s.seconds > 0 ? frames / s.seconds : 0.0);
+  return out;
+}
+
+std::string FormatSessionSummary(const fixtures::SessionSummary& s, uint64_t seed, uint64_t bytes,
+                                 double seconds) {
+  std::string out;
+  out += Printf("Session    %s  (seed %llu)\n", fixtures::CalibrationSessionName(s.kind).c_str(),
+                static_cast<unsigned long long>(seed));
+  out += Printf("Folder     %s  (%s)\n", s.folder.string().c_str(), FormatBytes(bytes).c_str());
+  out += Printf("Frames     depth %d, rgb %d, thermal %d; %d FFC events; %.3f s\n", s.depth_frames,
+                s.rgb_frames, s.thermal_frames, s.ffc_events, s.duration_s);
+  out += "Rig        rig.yaml is the nominal rig; the true rig is truth/rig.yaml\n";
+  const int frames = s.depth_frames + s.rgb_frames + s.thermal_frames;
+  out += Printf("Done       %d frames in %s (%.1f frames/s)\n", frames,
+                core::ProgressBar::FormatDuration(seconds).c_str(),
+                seconds > 0 ? frames / seconds : 0.0);
+  return out;
+}
+
+uint64_t FolderBytes(const fs::path& folder) {
+  uint64_t bytes = 0;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code size_ec;
+    if (it->is_regular_file(size_ec)) {
+      const auto size = it->file_size(size_ec);
+      if (!size_ec) bytes += size;
+    }
+  }
+  return bytes;
+}
+
+// What the command line said, before it is turned into typed options.
+struct SynthArguments {
+  std::string scene;
+  std::string session;
+  fs::path out;
+  uint64_t seed = 1;
+  std::string size = "small";
+  std::string trajectory = "smooth";
+  std::string thermal_format = "raw";
+  std::optional<double> duration_s;
+  std::optional<double> depth_rate_hz, rgb_rate_hz, thermal_rate_hz;
+  std::optional<double> rgb_offset_s, thermal_offset_s;
+  std::optional<double> scene_scale;
+  std::optional<int> rooms;
+  bool perturb_rig = false;
+  bool no_noise = false;
+  bool no_rgb = false;
+  bool no_thermal = false;
+  bool overwrite = false;
+  bool list = false;
+};
+
+int RunScan(const SynthArguments& args, const CommonOptions& common) {
+  fixtures::SynthScanOptions o = args.size == "full"
+                                     ? fixtures::SynthScanOptions::Full(args.scene)
+                                     : fixtures::SynthScanOptions::Small(args.scene);
+  o.seed = args.seed;
+  if (args.duration_s) o.duration_s = *args.duration_s;
+  if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
+  if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
+  if (args.thermal_rate_hz) o.thermal_rate_hz = *args.thermal_rate_hz;
+  if (args.rgb_offset_s) o.rgb_time_offset_s = *args.rgb_offset_s;
+  if (args.thermal_offset_s) o.thermal_time_offset_s = *args.thermal_offset_s;
+  if (args.scene_scale) o.scene_options.scale = *args.scene_scale;
+  if (args.rooms) o.scene_options.rooms = *args.rooms;
+  o.motion = *fixtures::ParseMotionKind(args.trajectory);
+  o.thermal_encoding = args.thermal_format == "tiff" ? core::ThermalEncoding::kFloatTiff
+                                                     : core::ThermalEncoding::kRawCounts16;
+  o.perturb_rig = args.perturb_rig;
+  o.noise = !args.no_noise;
+  o.write_rgb = !args.no_rgb;
+  o.write_thermal = !args.no_thermal;
+  ThrowIfInvalid(o.Check());
+  PrepareOutputFolder(args.out, args.overwrite);
+
+  LazyProgress progress("render", common.quiet);
+  const fixtures::SynthScanSummary summary =
+      fixtures::SynthesizeScan(o, args.out, [&](int done, int total) { progress(done, total); });
+  progress.Finish();
+  if (!common.quiet) std::cout << FormatScanSummary(o, summary) << std::flush;
+  return kExitOk;
+}
+
+int RunSession(const SynthArguments& args, const CommonOptions& common) {
+  const std::optional<fixtures::CalibrationSessionKind> kind =
+      fixtures::ParseCalibrationSessionKind(args.session);
+  if (!kind) {
+    throw UsageError("--session: unknown session '" + args.session +
+                     "' (known: " + Join(fixtures::CalibrationSessionNames()) + ")");
+  }
+  fixtures::CalibrationSessionOptions o =
+      fixtures::CalibrationSessionOptions::Preset(*kind, args.size == "small", args.seed);
+  if (args.duration_s) {
+    if (*kind == fixtures::CalibrationSessionKind::kTargetlessExtrinsics) {
+      o.targetless.duration_s = *args.duration_s;
+    } else if (*kind == fixtures::CalibrationSessionKind::kLatency) {
+      o.latency.duration_s = *args.duration_s;
+    } else {
+      throw UsageError("--duration: does not apply to session '" + args.session +
+                       "' (its length is its number of views)");
+    }
+  }
+  if (args.thermal_format == "tiff")
+    o.common().thermal_encoding = core::ThermalEncoding::kFloatTiff;
+  ThrowIfInvalid(o.Check());
+  PrepareOutputFolder(args.out, args.overwrite);
+
+  LazyProgress progress("render", common.quiet);
+  const auto started = std::chrono::steady_clock::now();
+  const fixtures::SessionSummary summary = fixtures::SynthesizeCalibrationSession(
+      o, args.out, [&](int done, int total) { progress(done, total); });
+  progress.Finish();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (!common.quiet) {
+    std::cout << FormatSessionSummary(summary, args.seed, FolderBytes(args.out), seconds)
+              << std::flush;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunSynth(int argc, char** argv) {
+  CLI::App app(
+      "Render a synthetic scan folder (scan-format.md) with exact ground truth — "
+      "groundtruth.txt, truth/scene.ply, truth/hotspots.yaml, truth/rig.yaml with "
+      "--perturb-rig — from a named scene; or a calibration session (--session).\n"
+      "Deterministic: the same options and seed give byte-identical files.",
+      "heatwave synth");
+  SynthArguments args;
+  CommonOptions common;
+  CLI::Option* scene =
+      app.add_option("--scene", args.scene, "scene to render: " + Join(fixtures::SceneNames()));
+  CLI::Option* session = app.add_option(
+      "--session", args.session,
+      "calibration session to render instead: " + Join(fixtures::CalibrationSessionNames()));
+  scene->excludes(session);
+  app.add_option("--out", args.out, "output scan folder (created)");
+  app.add_option("--seed", args.seed, "seed of everything random")->capture_default_str();
+  app.add_option("--size", args.size,
+                 "small: tiny images and 1 s (tests); full: 640x480 depth and colour, 320x240 "
+                 "thermal, 10 s")
+      ->check(CLI::IsMember({"small", "full"}))
+      ->capture_default_str();
+  app.add_option("--duration", args.duration_s, "length of the recording, s");
+  app.add_option("--trajectory", args.trajectory,
+                 "hand-held motion: smooth sweep with tremor, or jerky bursts (~1 m/s, ~90°/s)")
+      ->check(CLI::IsMember({"smooth", "jerky"}))
+      ->capture_default_str();
+  app.add_option("--depth-rate", args.depth_rate_hz, "depth frame rate, Hz (default 30)");
+  app.add_option("--rgb-rate", args.rgb_rate_hz, "colour frame rate, Hz (default 30)");
+  app.add_option("--thermal-rate", args.thermal_rate_hz,
+                 "thermal frame rate, Hz (default 30; real cameras 9, 27, 30, 60, 80)");
+  app.add_option("--rgb-offset", args.rgb_offset_s,
+                 "rig.yaml time_offset_s of the colour stream, s (default +0.012)");
+  app.add_option("--thermal-offset", args.thermal_offset_s,
+                 "rig.yaml time_offset_s of the thermal stream, s (default -0.040)");
+  app.add_option("--thermal-format", args.thermal_format,
+                 "thermal frames as raw: 16-bit centikelvin PNG, or tiff: float °C TIFF")
+      ->check(CLI::IsMember({"raw", "tiff"}))
+      ->capture_default_str();
+  app.add_option("--scene-scale", args.scene_scale, "scale the scene's size by this factor");
+  app.add_option("--rooms", args.rooms, "rooms of the 'large' scene");
+  app.add_flag("--perturb-rig", args.perturb_rig,
+               "write a deliberately wrong rig.yaml and the true one as truth/rig.yaml");
+  app.add_flag("--no-noise", args.no_noise, "ideal sensors: no noise, dropouts or drift");
+  app.add_flag("--no-rgb", args.no_rgb, "render no colour stream");
+  app.add_flag("--no-thermal", args.no_thermal, "render no thermal stream");
+  app.add_flag("--overwrite", args.overwrite,
+               "replace the scan in a non-empty --out folder (other files are kept)");
+  app.add_flag("--list", args.list, "list the scenes and sessions and exit");
+  AddCommonOptions(app, common);
+  if (const int code = Parse(app, argc, argv); code >= 0) return code;
+
+  return RunGuarded([&] {
+    if (args.list) {
+      std::cout << "Scenes:   " << Join(fixtures::SceneNames()) << "\n"
+                << "Sessions: " << Join(fixtures::CalibrationSessionNames()) << "\n";
+      return kExitOk;
+    }
+    if (scene->count() == 0 && session->count() == 0) {
+      throw UsageError("one of --scene or --session is required (--list shows them)");
+    }
+    if (args.out.empty()) throw UsageError("--out is required");
+    if (session->count() > 0) {
+      // Scan-only options must not be silently ignored.
+      const std::pair<bool, const char*> scan_only[] = {
+          {args.trajectory != "smooth", "--trajectory"},
+          {args.depth_rate_hz.has_value(), "--depth-rate"},
+          {args.rgb_rate_hz.has_value(), "--rgb-rate"},
+          {args.thermal_rate_hz.has_value(), "--thermal-rate"},
+          {args.rgb_offset_s.has_value(), "--rgb-offset"},
+          {args.thermal_offset_s.has_value(), "--thermal-offset"},
+          {args.scene_scale.has_value(), "--scene-scale"},
+          {args.rooms.has_value(), "--rooms"},
+          {args.perturb_rig, "--perturb-rig"},
+          {args.no_noise, "--no-noise"},
+          {args.no_rgb, "--no-rgb"},
+          {args.no_thermal, "--no-thermal"}};
+      for (const auto& [given, name] : scan_only) {
+        if (given) throw UsageError(std::string(name) + ": applies to --scene only");
+      }
+      return RunSession(args, common);
+    }
+    return RunScan(args, common);
+  });
+}
+
+}  // namespace hw::cli

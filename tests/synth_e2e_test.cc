@@ -1,0 +1,159 @@
+// End-to-end tests of `heatwave synth`: the executable renders scan folders that open as
+// scans, refuses to clobber folders, and maps bad options to exit code 2 with one line.
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/atomic_file.h"
+#include "core/scan.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::core::Stream;
+
+struct Result {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+// Runs the heatwave executable with `args` (already shell-quoted where needed).
+Result Heatwave(const std::string& args) {
+  const std::string command = std::string(HW_HEATWAVE_EXE) + " " + args + " 2>&1";
+  Result result;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+    result.output.append(buffer.data(), n);
+  }
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return result;
+}
+
+int CountLines(const std::string& s) {
+  int n = 0;
+  for (const char c : s) n += c == '\n';
+  return n;
+}
+
+fs::path Folder(const std::string& name) {
+  const fs::path folder = fs::path(::testing::TempDir()) / "hw_synth_e2e" / name;
+  fs::remove_all(folder);
+  return folder;
+}
+
+std::map<std::string, std::string> ReadTree(const fs::path& folder) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(folder)) {
+    if (entry.is_regular_file()) {
+      files[fs::relative(entry.path(), folder).string()] = hw::core::ReadFile(entry.path());
+    }
+  }
+  return files;
+}
+
+TEST(SynthCli, ListsScenesAndSessions) {
+  const Result r = Heatwave("synth --list");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("equipment-small"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("latency"), std::string::npos) << r.output;
+  EXPECT_EQ(Heatwave("synth --help").exit_code, 0);
+  EXPECT_EQ(Heatwave("help synth").exit_code, 0);
+}
+
+TEST(SynthCli, RendersAScanThatOpens) {
+  const fs::path out = Folder("scan") / "scan";
+  const Result r = Heatwave(
+      "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
+      "--perturb-rig --out " +
+      out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // The summary names the streams and the planted regions.
+  EXPECT_NE(r.output.find("Hotspots"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("breaker-3"), std::string::npos) << r.output;
+  const hw::core::Scan scan = hw::core::Scan::Open(out);
+  EXPECT_EQ(scan.NumFrames(Stream::kDepth), 6);
+  EXPECT_EQ(scan.NumFrames(Stream::kThermal), 13);
+  EXPECT_NEAR(scan.MedianPeriod(Stream::kThermal), 1.0 / 60, 1.1e-6);
+  EXPECT_TRUE(scan.groundtruth().has_value());
+  EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
+  EXPECT_TRUE(fs::exists(out / "truth" / "scene.ply"));
+  EXPECT_TRUE(fs::exists(out / "truth" / "hotspots.yaml"));
+
+  // Same options and seed: the same bytes; --quiet prints nothing.
+  const fs::path again = Folder("again") / "scan";
+  const Result q = Heatwave(
+      "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
+      "--perturb-rig --quiet --out " +
+      again.string());
+  ASSERT_EQ(q.exit_code, 0) << q.output;
+  EXPECT_EQ(q.output, "");
+  EXPECT_TRUE(ReadTree(out) == ReadTree(again));
+}
+
+TEST(SynthCli, RefusesANonEmptyFolderUnlessOverwrite) {
+  const fs::path out = Folder("busy");
+  hw::core::WriteFileAtomically(out / "notes.txt", "mine\n");
+  hw::core::WriteFileAtomically(out / "depth" / "1.000000.png", "stale");
+  const std::string args = "synth --scene building-small --duration 0.1 -q --out " + out.string();
+  const Result refused = Heatwave(args);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_EQ(CountLines(refused.output), 1) << refused.output;
+  EXPECT_NE(refused.output.find("--overwrite"), std::string::npos) << refused.output;
+  EXPECT_FALSE(fs::exists(out / "rig.yaml"));
+
+  const Result replaced = Heatwave(args + " --overwrite");
+  EXPECT_EQ(replaced.exit_code, 0) << replaced.output;
+  EXPECT_TRUE(fs::exists(out / "notes.txt"));                // not ours: kept
+  EXPECT_FALSE(fs::exists(out / "depth" / "1.000000.png"));  // the old scan's: gone
+  EXPECT_EQ(hw::core::Scan::Open(out).NumFrames(Stream::kDepth), 3);
+
+  const fs::path file = Folder("file") / "f";
+  hw::core::WriteFileAtomically(file, "x");
+  const Result not_a_folder = Heatwave("synth --scene building-small --out " + file.string());
+  EXPECT_EQ(not_a_folder.exit_code, 2) << not_a_folder.output;
+  EXPECT_NE(not_a_folder.output.find("not a folder"), std::string::npos) << not_a_folder.output;
+}
+
+TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
+  const std::string out = " --out " + Folder("bad").string();
+  const std::pair<std::string, std::string> cases[] = {
+      {"synth --scene garage" + out, "known: equipment"},
+      {"synth --scene equipment-small --duration -1" + out, "duration_s"},
+      {"synth --scene equipment-small --thermal-rate 500" + out, "thermal_rate_hz"},
+      {"synth --scene equipment-small --trajectory wobbly" + out, "trajectory"},
+      {"synth --scene equipment-small --size huge" + out, "size"},
+      {"synth --scene equipment-small --session latency" + out, "excludes"},
+      {"synth" + out, "--scene or --session"},
+      {"synth --scene equipment-small", "--out"},
+      {"synth --session latency --perturb-rig" + out, "--perturb-rig"},
+      {"synth --session intrinsics-thermal --duration 3" + out, "--duration"},
+      {"synth --session tea-time" + out, "known: intrinsics-thermal"},
+  };
+  for (const auto& [args, needle] : cases) {
+    const Result r = Heatwave(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(needle), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << args << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(Folder("bad") / "rig.yaml"));
+}
+
+TEST(SynthCli, RendersACalibrationSession) {
+  const fs::path out = Folder("session");
+  const Result r = Heatwave("synth --session intrinsics-thermal -q --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
+  EXPECT_GT(hw::core::Scan::Open(out).NumFrames(Stream::kThermal), 0);
+}
+
+}  // namespace
