@@ -5,12 +5,12 @@
 #include <cassert>
 #include <charconv>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <iostream>
 
 #include "cli/command.h"
 #include "core/progress.h"
+#include "core/strings.h"
 
 namespace hw::cli {
 
@@ -18,21 +18,6 @@ namespace {
 
 // At most this many unloadable frames are listed in the text report.
 constexpr size_t kMaxListedProblems = 20;
-
-std::string Printf(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Printf(const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  va_list copy;
-  va_copy(copy, args);
-  const int size = std::vsnprintf(nullptr, 0, format, copy);
-  va_end(copy);
-  std::string out(static_cast<size_t>(std::max(size, 0)) + 1, '\0');
-  std::vsnprintf(out.data(), out.size(), format, args);
-  va_end(args);
-  out.resize(static_cast<size_t>(std::max(size, 0)));
-  return out;
-}
 
 std::string JsonString(const std::string& s) {
   std::string out = "\"";
@@ -43,7 +28,7 @@ std::string JsonString(const std::string& s) {
     } else if (c == '\\') {
       out += "\\\\";
     } else if (u < 0x20 || u == 0x7f) {
-      out += Printf("\\u%04x", u);
+      out += core::StringPrintf("\\u%04x", u);
     } else {
       out += c;
     }
@@ -131,40 +116,40 @@ std::string FormatScanInfo(const ScanInfoReport& report) {
   const core::ScanSummary& s = report.summary;
   std::string out;
   out += "Scan     " + s.folder.string() + "\n";
-  out += "Rig      " + s.rig_path.string() + Printf("  (depth_scale %g units/m)\n", s.depth_scale);
+  out += "Rig      " + s.rig_path.string() + core::StringPrintf("  (depth_scale %g units/m)\n", s.depth_scale);
   out += "\n";
-  out += Printf("%-8s %6s  %-17s %8s %8s %5s %9s %8s %9s\n", "Stream", "Frames", "Start (s)",
+  out += core::StringPrintf("%-8s %6s  %-17s %8s %8s %5s %9s %8s %9s\n", "Stream", "Frames", "Start (s)",
                 "Span (s)", "Rate Hz", "Gaps", "Longest s", "Missing", "Offset s");
   std::string pairing;
   for (const core::StreamSummary& st : s.streams) {
     const std::string name = core::StreamName(st.stream);
     if (!st.has_index) {
-      out += Printf("%-8s %6s  no %s.txt\n", name.c_str(), "-", name.c_str());
+      out += core::StringPrintf("%-8s %6s  no %s.txt\n", name.c_str(), "-", name.c_str());
       continue;
     }
-    out += Printf("%-8s %6d  %-17.6f %8.3f %8.2f %5d %9.4f %8d %+9.4f\n", name.c_str(), st.frames,
+    out += core::StringPrintf("%-8s %6d  %-17.6f %8.3f %8.2f %5d %9.4f %8d %+9.4f\n", name.c_str(), st.frames,
                   st.start_s, st.span_s, st.median_rate_hz, st.gaps, st.largest_interval_s,
                   st.missing_files, st.time_offset_s);
     if (st.stream != core::Stream::kDepth) {
-      pairing += Printf("Paired   %d of %d depth frames have a %s frame within %.4f s\n",
+      pairing += core::StringPrintf("Paired   %d of %d depth frames have a %s frame within %.4f s\n",
                         st.associated_depth_frames, s.streams[0].frames, name.c_str(),
                         st.max_association_dt_s);
     }
   }
   out += pairing;
   out += "\n";
-  out += Printf("%-8s %-8s %-10s %9s %9s %4s %13s %15s\n", "Camera", "Model", "Size", "fx", "fy",
+  out += core::StringPrintf("%-8s %-8s %-10s %9s %9s %4s %13s %15s\n", "Camera", "Model", "Size", "fx", "fy",
                 "Dist", "Baseline (m)", "Rotation (deg)");
   for (const core::CameraSummary& c : s.cameras) {
     const bool reference = c.name == "depth";
-    out += Printf("%-8s %-8s %-10s %9.2f %9.2f %4d %13s %15s\n", c.name.c_str(), c.model.c_str(),
+    out += core::StringPrintf("%-8s %-8s %-10s %9.2f %9.2f %4d %13s %15s\n", c.name.c_str(), c.model.c_str(),
                   (std::to_string(c.width) + "x" + std::to_string(c.height)).c_str(), c.fx, c.fy,
-                  c.distortion_coefficients, reference ? "-" : Printf("%.4f", c.baseline_m).c_str(),
-                  reference ? "-" : Printf("%.3f", c.rotation_deg).c_str());
+                  c.distortion_coefficients, reference ? "-" : core::StringPrintf("%.4f", c.baseline_m).c_str(),
+                  reference ? "-" : core::StringPrintf("%.3f", c.rotation_deg).c_str());
   }
   if (s.thermal_settings) {
     const core::ThermalSettings& t = *s.thermal_settings;
-    out += Printf(
+    out += core::StringPrintf(
         "Thermal  apparent °C = %g x raw %c %g; band %g-%g µm; NETD %g K\n"
         "         scene defaults: emissivity %g, reflected apparent temperature %g °C\n",
         t.raw_scale, t.raw_offset < 0 ? '-' : '+', std::abs(t.raw_offset), t.spectral_band_um[0],
@@ -173,33 +158,33 @@ std::string FormatScanInfo(const ScanInfoReport& report) {
   out += "\n";
   if (s.has_groundtruth) {
     out +=
-        Printf("Ground truth  %d poses over %.3f s\n", s.groundtruth_poses, s.groundtruth_span_s);
+        core::StringPrintf("Ground truth  %d poses over %.3f s\n", s.groundtruth_poses, s.groundtruth_span_s);
   } else {
     out += "Ground truth  none\n";
   }
-  out += Printf("FFC events    %d\n", s.ffc_events);
+  out += core::StringPrintf("FFC events    %d\n", s.ffc_events);
   if (!s.warnings.empty()) {
-    out += Printf("\nWarnings (%zu):\n", s.warnings.size());
+    out += core::StringPrintf("\nWarnings (%zu):\n", s.warnings.size());
     for (const std::string& w : s.warnings) out += "  " + w + "\n";
   }
   if (report.frames_checked) {
     if (report.frame_problems.empty()) {
-      out += Printf("\nFrames   all %d frames load\n", report.total_frames);
+      out += core::StringPrintf("\nFrames   all %d frames load\n", report.total_frames);
     } else {
-      out += Printf("\nFrames   %zu of %d frames cannot be loaded:\n", report.frame_problems.size(),
+      out += core::StringPrintf("\nFrames   %zu of %d frames cannot be loaded:\n", report.frame_problems.size(),
                     report.total_frames);
       for (size_t i = 0; i < report.frame_problems.size() && i < kMaxListedProblems; ++i) {
         out += "  " + report.frame_problems[i].message + "\n";
       }
       if (report.frame_problems.size() > kMaxListedProblems) {
-        out += Printf("  ... and %zu more\n", report.frame_problems.size() - kMaxListedProblems);
+        out += core::StringPrintf("  ... and %zu more\n", report.frame_problems.size() - kMaxListedProblems);
       }
     }
   }
   out += "\n";
   if (report.frame_problems.empty()) {
     out += s.warnings.empty() ? "OK: valid scan\n"
-                              : Printf("OK: valid scan, %zu warning(s)\n", s.warnings.size());
+                              : core::StringPrintf("OK: valid scan, %zu warning(s)\n", s.warnings.size());
   } else {
     out += "FAILED: some frames cannot be loaded\n";
   }

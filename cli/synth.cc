@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -15,8 +14,10 @@
 #include <vector>
 
 #include "cli/command.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/strings.h"
 #include "fixtures/calibration_sessions.h"
 #include "fixtures/scenes.h"
 #include "fixtures/synth_scan.h"
@@ -27,21 +28,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Printf(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Printf(const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  va_list copy;
-  va_copy(copy, args);
-  const int size = std::vsnprintf(nullptr, 0, format, copy);
-  va_end(copy);
-  std::string out(static_cast<size_t>(std::max(size, 0)) + 1, '\0');
-  std::vsnprintf(out.data(), out.size(), format, args);
-  va_end(args);
-  out.resize(static_cast<size_t>(std::max(size, 0)));
-  return out;
-}
-
 std::string Join(const std::vector<std::string>& items) {
   std::string out;
   for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
@@ -50,10 +36,10 @@ std::string Join(const std::vector<std::string>& items) {
 
 std::string FormatBytes(uint64_t bytes) {
   const double b = static_cast<double>(bytes);
-  if (b >= 1e9) return Printf("%.2f GB", b / 1e9);
-  if (b >= 1e6) return Printf("%.1f MB", b / 1e6);
-  if (b >= 1e3) return Printf("%.1f kB", b / 1e3);
-  return Printf("%llu B", static_cast<unsigned long long>(bytes));
+  if (b >= 1e9) return core::StringPrintf("%.2f GB", b / 1e9);
+  if (b >= 1e6) return core::StringPrintf("%.1f MB", b / 1e6);
+  if (b >= 1e3) return core::StringPrintf("%.1f kB", b / 1e3);
+  return core::StringPrintf("%llu B", static_cast<unsigned long long>(bytes));
 }
 
 // What a scan folder holds (scan-format.md, plus the sessions' target.yaml): removed by
@@ -103,56 +89,56 @@ class LazyProgress {
 };
 
 std::string StreamLine(const char* name, int frames, double rate_hz, const std::string& extra) {
-  if (frames == 0) return Printf("  %-8s none\n", name);
-  return Printf("  %-8s %5d frames at %6.2f Hz%s\n", name, frames, rate_hz, extra.c_str());
+  if (frames == 0) return core::StringPrintf("  %-8s none\n", name);
+  return core::StringPrintf("  %-8s %5d frames at %6.2f Hz%s\n", name, frames, rate_hz, extra.c_str());
 }
 
 std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
                               const fixtures::SynthScanSummary& s) {
   std::string out;
-  out += Printf("Scene      %s  (seed %llu, %s motion, noise %s)\n", s.scene.c_str(),
+  out += core::StringPrintf("Scene      %s  (seed %llu, %s motion, noise %s)\n", s.scene.c_str(),
                 static_cast<unsigned long long>(o.seed), fixtures::MotionKindName(o.motion).c_str(),
                 o.noise ? "on" : "off");
-  out += Printf("Folder     %s  (%s)\n", s.folder.string().c_str(),
+  out += core::StringPrintf("Folder     %s  (%s)\n", s.folder.string().c_str(),
                 FormatBytes(s.bytes_written).c_str());
   out += "Streams\n";
   out += StreamLine("depth", s.depth_frames, o.depth_rate_hz,
-                    Printf(", %dx%d", static_cast<int>(std::lround(640 * o.image_scale)),
+                    core::StringPrintf(", %dx%d", static_cast<int>(std::lround(640 * o.image_scale)),
                            static_cast<int>(std::lround(480 * o.image_scale))));
   out += StreamLine("rgb", s.rgb_frames, o.rgb_rate_hz,
-                    Printf(", clock offset %+.3f s", o.rgb_time_offset_s));
+                    core::StringPrintf(", clock offset %+.3f s", o.rgb_time_offset_s));
   out += StreamLine("thermal", s.thermal_frames, o.thermal_rate_hz,
-                    Printf(", clock offset %+.3f s, %s, %d FFC events", o.thermal_time_offset_s,
+                    core::StringPrintf(", clock offset %+.3f s, %s, %d FFC events", o.thermal_time_offset_s,
                            o.thermal_encoding == core::ThermalEncoding::kRawCounts16 ? "raw counts"
                                                                                      : "float TIFF",
                            s.ffc_events));
-  out += Printf("Time span  %.6f .. %.6f s on the depth clock (%.3f s)\n", s.start_time_s,
+  out += core::StringPrintf("Time span  %.6f .. %.6f s on the depth clock (%.3f s)\n", s.start_time_s,
                 s.end_time_s, s.end_time_s - s.start_time_s);
-  out += Printf("Motion     mean %.2f m/s, max %.2f m/s; mean %.0f deg/s, max %.0f deg/s\n",
+  out += core::StringPrintf("Motion     mean %.2f m/s, max %.2f m/s; mean %.0f deg/s, max %.0f deg/s\n",
                 s.motion.mean_speed_m_per_s, s.motion.max_speed_m_per_s,
                 s.motion.mean_rate_rad_per_s * 180 / std::numbers::pi,
                 s.motion.max_rate_rad_per_s * 180 / std::numbers::pi);
   out +=
-      Printf("Rig        %s\n", o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
+      core::StringPrintf("Rig        %s\n", o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
                                               : "rig.yaml is the true rig");
-  out += Printf(
+  out += core::StringPrintf(
       "Truth      groundtruth.txt (%d poses), truth/scene.ply (%d vertices, %d faces), "
       "truth/hotspots.yaml\n",
       s.depth_frames, s.mesh_vertices, s.mesh_faces);
-  out += Printf("Hotspots   %zu\n", s.hotspots.size());
+  out += core::StringPrintf("Hotspots   %zu\n", s.hotspots.size());
   for (const fixtures::HotspotTruth& h : s.hotspots) {
-    out += Printf("  %-22s %-4s %6.1f °C (%s %5.1f °C)  %9.5f m²  %6.3f x %6.3f m\n", h.id.c_str(),
+    out += core::StringPrintf("  %-22s %-4s %6.1f °C (%s %5.1f °C)  %9.5f m²  %6.3f x %6.3f m\n", h.id.c_str(),
                   h.hot ? "hot" : "cold", h.temperature_c, h.hot ? ">=" : "<=", h.threshold_c,
                   h.area_m2, h.length_m, h.width_m);
   }
   if (s.depth_pixels_out_of_range > 0 || s.thermal_pixels_saturated > 0) {
-    out += Printf(
+    out += core::StringPrintf(
         "Clipped    %d depth pixels beyond the uint16 range, %d thermal pixels "
         "saturated\n",
         s.depth_pixels_out_of_range, s.thermal_pixels_saturated);
   }
   const int frames = s.depth_frames + s.rgb_frames + s.thermal_frames;
-  out += Printf("Done       %d frames in %s (%.1f frames/s)\n", frames,
+  out += core::StringPrintf("Done       %d frames in %s (%.1f frames/s)\n", frames,
                 core::ProgressBar::FormatDuration(s.seconds).c_str(),
                 s.seconds > 0 ? frames / s.seconds : 0.0);
   return out;
@@ -161,30 +147,17 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
 std::string FormatSessionSummary(const fixtures::SessionSummary& s, uint64_t seed, uint64_t bytes,
                                  double seconds) {
   std::string out;
-  out += Printf("Session    %s  (seed %llu)\n", fixtures::CalibrationSessionName(s.kind).c_str(),
+  out += core::StringPrintf("Session    %s  (seed %llu)\n", fixtures::CalibrationSessionName(s.kind).c_str(),
                 static_cast<unsigned long long>(seed));
-  out += Printf("Folder     %s  (%s)\n", s.folder.string().c_str(), FormatBytes(bytes).c_str());
-  out += Printf("Frames     depth %d, rgb %d, thermal %d; %d FFC events; %.3f s\n", s.depth_frames,
+  out += core::StringPrintf("Folder     %s  (%s)\n", s.folder.string().c_str(), FormatBytes(bytes).c_str());
+  out += core::StringPrintf("Frames     depth %d, rgb %d, thermal %d; %d FFC events; %.3f s\n", s.depth_frames,
                 s.rgb_frames, s.thermal_frames, s.ffc_events, s.duration_s);
   out += "Rig        rig.yaml is the nominal rig; the true rig is truth/rig.yaml\n";
   const int frames = s.depth_frames + s.rgb_frames + s.thermal_frames;
-  out += Printf("Done       %d frames in %s (%.1f frames/s)\n", frames,
+  out += core::StringPrintf("Done       %d frames in %s (%.1f frames/s)\n", frames,
                 core::ProgressBar::FormatDuration(seconds).c_str(),
                 seconds > 0 ? frames / seconds : 0.0);
   return out;
-}
-
-uint64_t FolderBytes(const fs::path& folder) {
-  uint64_t bytes = 0;
-  std::error_code ec;
-  for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
-    std::error_code size_ec;
-    if (it->is_regular_file(size_ec)) {
-      const auto size = it->file_size(size_ec);
-      if (!size_ec) bytes += size;
-    }
-  }
-  return bytes;
 }
 
 // What the command line said, before it is turned into typed options.
@@ -272,7 +245,7 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (!common.quiet) {
-    std::cout << FormatSessionSummary(summary, args.seed, FolderBytes(args.out), seconds)
+    std::cout << FormatSessionSummary(summary, args.seed, core::FolderSizeBytes(args.out), seconds)
               << std::flush;
   }
   return kExitOk;

@@ -58,6 +58,19 @@ void WriteFileAtomically(const fs::path& path, std::string_view content) {
   });
 }
 
+uint64_t FolderSizeBytes(const fs::path& folder) {
+  uint64_t bytes = 0;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code size_ec;
+    if (it->is_regular_file(size_ec)) {
+      const auto size = it->file_size(size_ec);
+      if (!size_ec) bytes += size;
+    }
+  }
+  return bytes;
+}
+
 std::string ReadFile(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, "no such file");

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -24,6 +25,9 @@ void WriteAtomically(const std::filesystem::path& path,
 
 // Writes `content` as the whole file `path`, atomically. Throws OutputError.
 void WriteFileAtomically(const std::filesystem::path& path, std::string_view content);
+
+// Total size in bytes of the regular files below `folder` (0 when it does not exist).
+uint64_t FolderSizeBytes(const std::filesystem::path& folder);
 
 // Reads a whole file. Throws InputError naming the path if it cannot be read.
 std::string ReadFile(const std::filesystem::path& path);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -12,6 +13,10 @@
 #include "core/trajectory.h"
 
 namespace hw::core {
+
+// A time rounded to the resolution of index files (whole microseconds, FormatTimestamp's
+// 6 decimals), so that what a writer plans with is exactly what readers get back.
+inline double RoundToMicroseconds(double t_s) { return std::round(t_s * 1e6) / 1e6; }
 
 // How thermal frames are stored (scan-format.md): uint16 raw counts through the rig's
 // raw_scale / raw_offset (PNG; quantised to raw_scale), or 32-bit float TIFF holding
