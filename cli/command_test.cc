@@ -7,20 +7,12 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "tests/support.h"
 
 namespace hw::cli {
 namespace {
 
-// argv arrays for calling Run* functions directly.
-struct Argv {
-  explicit Argv(std::vector<std::string> args) : storage(std::move(args)) {
-    for (auto& s : storage) pointers.push_back(s.data());
-  }
-  int argc() const { return static_cast<int>(pointers.size()); }
-  char** argv() { return pointers.data(); }
-  std::vector<std::string> storage;
-  std::vector<char*> pointers;
-};
+using hw::test::Argv;
 
 TEST(Command, TableHasUniqueNamesAndSummaries) {
   std::set<std::string> names;

@@ -14,21 +14,14 @@
 #include "cli/command.h"
 #include "core/atomic_file.h"
 #include "core/scan_writer.h"
+#include "tests/support.h"
 
 namespace hw::cli {
 namespace {
 
-namespace fs = std::filesystem;
+using hw::test::Argv;
 
-struct Argv {
-  explicit Argv(std::vector<std::string> args) : storage(std::move(args)) {
-    for (auto& s : storage) pointers.push_back(s.data());
-  }
-  int argc() const { return static_cast<int>(pointers.size()); }
-  char** argv() { return pointers.data(); }
-  std::vector<std::string> storage;
-  std::vector<char*> pointers;
-};
+namespace fs = std::filesystem;
 
 struct Result {
   int code;
@@ -45,27 +38,6 @@ Result RunCli(std::vector<std::string> args) {
   Result result{code, testing::internal::GetCapturedStdout(),
                 testing::internal::GetCapturedStderr()};
   return result;
-}
-
-// This process's temporary folder, removed when the tests end.
-const fs::path& TestRoot() {
-  struct Root {
-    fs::path path =
-        fs::path(::testing::TempDir()) / ("scan_info_test_" + std::to_string(::getpid()));
-    ~Root() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Root root;
-  return root.path;
-}
-
-fs::path TestFolder() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path folder = TestRoot() / info->name();
-  fs::remove_all(folder);
-  return folder;
 }
 
 // 10 depth frames at 30 Hz, 4 thermal frames at 9 Hz stamped 40 ms late (alternately raw
@@ -98,7 +70,7 @@ fs::path WriteValidScan(const fs::path& folder) {
 }
 
 TEST(ScanInfo, ValidScanExitsZeroWithASummary) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   const Result r = RunCli({scan.string()});
   EXPECT_EQ(r.code, kExitOk) << r.err;
   EXPECT_EQ(r.err, "");
@@ -132,7 +104,7 @@ TEST(ScanInfo, ValidScanExitsZeroWithASummary) {
 }
 
 TEST(ScanInfo, WarningsAreAllowed) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   fs::remove(scan / "depth" / "0.100000.png");
   const Result r = RunCli({scan.string()});
   EXPECT_EQ(r.code, kExitOk) << r.err;
@@ -142,7 +114,7 @@ TEST(ScanInfo, WarningsAreAllowed) {
 }
 
 TEST(ScanInfo, InvalidScanExitsOneWithOneLine) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   const fs::path scan = WriteValidScan(folder);
   fs::remove(scan / "depth.txt");
   Result r = RunCli({scan.string()});
@@ -163,7 +135,7 @@ TEST(ScanInfo, InvalidScanExitsOneWithOneLine) {
 }
 
 TEST(ScanInfo, ExternalRigForATumFolder) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   const fs::path scan = WriteValidScan(folder / "scan");
   fs::rename(scan / "rig.yaml", folder / "rig.yaml");
   EXPECT_EQ(RunCli({scan.string()}).code, kExitFailure);
@@ -173,7 +145,7 @@ TEST(ScanInfo, ExternalRigForATumFolder) {
 }
 
 TEST(ScanInfo, BadUsageExitsTwo) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   EXPECT_EQ(RunCli({}).code, kExitUsage);                                  // no SCAN
   EXPECT_EQ(RunCli({scan.string(), "extra"}).code, kExitUsage);            // two folders
   EXPECT_EQ(RunCli({scan.string(), "--max-dt", "abc"}).code, kExitUsage);  // not a number
@@ -189,7 +161,7 @@ TEST(ScanInfo, BadUsageExitsTwo) {
 }
 
 TEST(ScanInfo, CheckFramesReportsUnloadableFrames) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   Result r = RunCli({scan.string(), "--check-frames", "--quiet"});
   EXPECT_EQ(r.code, kExitOk) << r.err;
   EXPECT_EQ(r.err, "");  // quiet: no progress bar
@@ -212,7 +184,7 @@ TEST(ScanInfo, CheckFramesReportsUnloadableFrames) {
 }
 
 TEST(ScanInfo, JsonReport) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   const Result r = RunCli({scan.string(), "--json", "--quiet"});
   EXPECT_EQ(r.code, kExitOk) << r.err;
   for (const std::string& part :
@@ -234,7 +206,7 @@ TEST(ScanInfo, JsonReport) {
 }
 
 TEST(ScanInfo, InspectScanTypedApi) {
-  const fs::path scan = WriteValidScan(TestFolder());
+  const fs::path scan = WriteValidScan(hw::test::FreshPath());
   ScanInfoOptions options;
   EXPECT_NE(options.Check(), "");  // no folder
   options.scan_folder = scan;

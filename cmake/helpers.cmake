@@ -30,12 +30,13 @@ function(hw_add_executable)
 endfunction()
 
 # hw_add_test(NAME name SRCS foo_test.cc DEPS ...)
-# A GoogleTest executable; every TEST becomes one ctest test. HW_SOURCE_DIR and
+# A GoogleTest executable with tests/support.h; every TEST becomes one ctest test. HW_SOURCE_DIR and
 # HW_BINARY_DIR let tests find the repository and the build's own outputs.
 function(hw_add_test)
   cmake_parse_arguments(HW "" "NAME" "SRCS;DEPS" ${ARGN})
   add_executable(${HW_NAME} ${HW_SRCS})
-  target_link_libraries(${HW_NAME} PRIVATE ${HW_DEPS} GTest::gtest GTest::gtest_main GTest::gmock)
+  target_link_libraries(${HW_NAME} PRIVATE ${HW_DEPS} hw_test_support GTest::gtest GTest::gtest_main
+                        GTest::gmock)
   hw_set_target_options(${HW_NAME})
   target_compile_definitions(${HW_NAME} PRIVATE
     HW_SOURCE_DIR="${PROJECT_SOURCE_DIR}" HW_BINARY_DIR="${PROJECT_BINARY_DIR}")

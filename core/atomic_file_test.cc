@@ -6,18 +6,12 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("hw_atomic_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 size_t CountFiles(const fs::path& dir) {
   size_t n = 0;
@@ -34,7 +28,7 @@ TEST(AtomicFile, TemporaryNameKeepsFolderAndExtension) {
 }
 
 TEST(AtomicFile, WritesAndReadsBack) {
-  const fs::path dir = FreshDir("roundtrip");
+  const fs::path dir = hw::test::TestFolder("roundtrip");
   const fs::path path = dir / "sub" / "x.txt";
   WriteFileAtomically(path, "hello\n");
   EXPECT_EQ(ReadFile(path), "hello\n");
@@ -44,7 +38,7 @@ TEST(AtomicFile, WritesAndReadsBack) {
 }
 
 TEST(AtomicFile, FailedWriteLeavesOldFileAndNoTemporary) {
-  const fs::path dir = FreshDir("fail");
+  const fs::path dir = hw::test::TestFolder("fail");
   const fs::path path = dir / "out.txt";
   WriteFileAtomically(path, "old");
   EXPECT_THROW(WriteAtomically(path,
@@ -65,7 +59,7 @@ TEST(AtomicFile, FailedWriteLeavesOldFileAndNoTemporary) {
 }
 
 TEST(AtomicFile, UnwritableFolderIsOutputError) {
-  const fs::path dir = FreshDir("unwritable");
+  const fs::path dir = hw::test::TestFolder("unwritable");
   // A regular file where a folder is expected: cannot create the parent.
   WriteFileAtomically(dir / "blocker", "x");
   try {
@@ -77,7 +71,7 @@ TEST(AtomicFile, UnwritableFolderIsOutputError) {
 }
 
 TEST(AtomicFile, ReadFileErrorsNameThePath) {
-  const fs::path dir = FreshDir("read");
+  const fs::path dir = hw::test::TestFolder("read");
   try {
     ReadFile(dir / "missing.yaml");
     FAIL() << "expected InputError";

@@ -20,6 +20,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/mrcal_c.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
@@ -27,15 +28,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
-
-fs::path TestDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::path(::testing::TempDir()) / "cameramodel_io_test" /
-                       (std::string(info->test_suite_name()) + "." + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // libmrcal's parser reports every rejection on stderr; the fuzz test would print thousands
 // of lines. Silences file descriptor 2 for the lifetime of the object.
@@ -193,7 +185,7 @@ TEST(CameraModelIoTest, NamesMrcalLensModels) {
 }
 
 TEST(CameraModelIoTest, RoundTripsEveryLensModelWithAndWithoutExtrinsics) {
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   const std::vector<Rigid3d> extrinsics = {
       Rigid3d(),
       Rigid3d(Eigen::Quaterniond(0.9, -0.1, 0.3, 1e-9), Eigen::Vector3d(0.03, -1.0 / 3.0, 2e-9)),
@@ -284,7 +276,7 @@ TEST(CameraModelIoTest, ParsesAHandWrittenModel) {
 
 TEST(CameraModelIoTest, ReadsWhatLibmrcalItselfWrites) {
   // mrcal_write_cameramodel_file prints 6 decimals: values equal to 1e-6 only.
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   const CameraModel camera = MakeCamera(CameraModelType::kOpenCV, 8);
   const size_t size = sizeof(mrcal_cameramodel_t) + 12 * sizeof(double);
   mrcal_cameramodel_t* model = static_cast<mrcal_cameramodel_t*>(std::calloc(1, size));
@@ -365,7 +357,7 @@ TEST(CameraModelIoTest, MalformedFilesThrowInputError) {
     EXPECT_THAT(error, HasSubstr(expected));
     EXPECT_EQ(error.find('\n'), std::string::npos);
   }
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   EXPECT_THROW(ReadMrcalCameraModel(dir / "missing.cameramodel"), InputError);
   std::string binary(300, '\0');
   for (size_t i = 0; i < binary.size(); ++i) binary[i] = static_cast<char>(i * 37);

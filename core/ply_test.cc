@@ -20,19 +20,13 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("hw_ply_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 std::vector<fs::path> ListDir(const fs::path& dir) {
   std::vector<fs::path> files;
@@ -182,7 +176,7 @@ TEST_P(PlyFormatTest, OutOfRangeValuesAreWrittenSaturated) {
 }
 
 TEST_P(PlyFormatTest, MixedPropertiesThroughAccessorsAndFiles) {
-  const fs::path dir = FreshDir("mixed" + std::to_string(static_cast<int>(GetParam())));
+  const fs::path dir = hw::test::TestFolder("mixed" + std::to_string(static_cast<int>(GetParam())));
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> uniform(-2.0, 2.0);
   const size_t n = 500;
@@ -779,7 +773,7 @@ TEST(PlyRead, AsciiDataErrors) {
 }
 
 TEST(PlyRead, MissingOrUnreadableFile) {
-  const fs::path dir = FreshDir("missing");
+  const fs::path dir = hw::test::TestFolder("missing");
   try {
     ReadPly(dir / "none.ply");
     ADD_FAILURE() << "no error";
@@ -790,7 +784,7 @@ TEST(PlyRead, MissingOrUnreadableFile) {
 }
 
 TEST(PlyWrite, AtomicWriteLeavesNoTemporaryFile) {
-  const fs::path dir = FreshDir("atomic");
+  const fs::path dir = hw::test::TestFolder("atomic");
   const fs::path path = dir / "scene.ply";
   PlyMesh mesh = EveryTypeMesh();
   for (const PlyFormat format :
@@ -914,7 +908,7 @@ PlyMesh StripMesh(size_t n) {
 // for 200k vertices (it is slower, and the test must stay fast). No timing assertion:
 // machines and their load differ; the numbers go to the log, as wall and CPU time.
 TEST(PlySpeed, OneMillionVertices) {
-  const fs::path dir = FreshDir("speed");
+  const fs::path dir = hw::test::TestFolder("speed");
   using Clock = std::chrono::steady_clock;
   struct Timer {
     Clock::time_point wall = Clock::now();

@@ -13,6 +13,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
@@ -20,16 +21,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
-
-// A unique empty folder per test.
-fs::path TestDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::path(::testing::TempDir()) / "rig_test" /
-                       (std::string(info->test_suite_name()) + "." + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // ---------------------------------------------------------------------------------------
 // Fixtures.
@@ -279,7 +270,7 @@ TEST(RigTest, RoundTripsRandomRotationsBitForBit) {
 }
 
 TEST(RigTest, WriteAndReadThroughAFile) {
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   const Rig rig = MakeRig(true, true);
   WriteRig(dir / "scan" / "rig.yaml", rig);
   ExpectSameRig(rig, ReadRig(dir / "scan" / "rig.yaml"));
@@ -659,7 +650,7 @@ TEST(RigTest, ErrorsGiveTheLineNumber) {
 }
 
 TEST(RigTest, MissingFileIsAnInputError) {
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   EXPECT_THROW(ReadRig(dir / "rig.yaml"), InputError);
   EXPECT_THROW(ReadRig(dir), InputError);  // a folder
   WriteFileAtomically(dir / "rig.yaml", "version: 1\n");
@@ -832,7 +823,7 @@ pitch_m: 0.050       # square_grid and aprilgrid: centre-to-centre distance
 }
 
 TEST(TargetTest, RoundTripsEveryType) {
-  const fs::path dir = TestDir();
+  const fs::path dir = hw::test::TestFolder();
   Target square_grid{TargetType::kSquareGrid, 4, 6, 0.03, 0.05, ""};
   Target chessboard{TargetType::kChessboard, 6, 9, 0.1 / 3.0, 0, ""};
   Target aprilgrid{TargetType::kAprilGrid, 1, 1, 0.088, 0.088 * 1.3, "tagStandard41h12"};

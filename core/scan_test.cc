@@ -20,32 +20,12 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/scan_writer.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
-
-// This process's temporary folder, removed when the tests end.
-const fs::path& TestRoot() {
-  struct Root {
-    fs::path path = fs::path(::testing::TempDir()) / ("scan_test_" + std::to_string(::getpid()));
-    ~Root() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Root root;
-  return root.path;
-}
-
-fs::path TestFolder() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path folder = TestRoot() / (std::string(info->test_suite_name()) + "." + info->name());
-  fs::remove_all(folder);
-  fs::create_directories(folder);
-  return folder;
-}
 
 Rig TestRig() {
   Rig rig;
@@ -264,7 +244,7 @@ TEST(StreamIndex, FuzzNeverCrashes) {
 // Opening
 
 TEST(ScanOpen, FolderRigAndDepthIndexProblemsAreInputErrors) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   ExpectInputError([&] { Scan::Open(folder / "nope"); }, {"nope", "no such scan folder"});
   WriteText(folder / "file", "x");
   ExpectInputError([&] { Scan::Open(folder / "file"); }, {"is not a folder"});
@@ -299,7 +279,7 @@ TEST(ScanOpen, FolderRigAndDepthIndexProblemsAreInputErrors) {
 }
 
 TEST(ScanOpen, StreamIndexWithoutItsCameraNamesBoth) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   WriteIndexOnlyScan(folder, DepthOnlyRig(), {1.0}, {}, {});
   WriteText(folder / "thermal.txt", "1.0 thermal/1.png\n");
   ExpectInputError(
@@ -345,7 +325,7 @@ TEST(ScanAssociation, ThermalClockOffsetShiftsPairs) {
   for (const double t : depth) thermal.push_back(t + 0.040);
   for (const double offset_s : {-0.040, 0.0}) {
     SCOPED_TRACE(offset_s);
-    const fs::path folder = TestFolder() / (offset_s == 0 ? "zero" : "offset");
+    const fs::path folder = hw::test::TestFolder() / (offset_s == 0 ? "zero" : "offset");
     Rig rig = TestRig();
     rig.thermal_time_offset_s = offset_s;
     WriteIndexOnlyScan(folder, rig, depth, {}, thermal);
@@ -377,7 +357,7 @@ TEST(ScanAssociation, ThermalClockOffsetShiftsPairs) {
 
 TEST(ScanAssociation, DefaultThresholdIsHalfTheSlowerPeriod) {
   // 30 Hz depth over 2 s, 9 Hz thermal starting later, ending earlier.
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   const std::vector<double> depth = Times(60, 0.0, 1.0 / 30.0);
   // (0.31: no depth frame lies exactly half-way between two thermal frames, a tie.)
   const std::vector<double> thermal = Times(12, 0.31, 1.0 / 9.0);
@@ -442,7 +422,7 @@ TEST(ScanAssociation, DefaultThresholdIsHalfTheSlowerPeriod) {
 }
 
 TEST(ScanAssociation, SingleFramesPairOnlyAtEqualTimesAndDisjointStreamsWarn) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   WriteIndexOnlyScan(folder, TestRig(), {5.0}, {5.0}, {5.5});
   const Scan scan = Scan::Open(folder);
   EXPECT_EQ(scan.MaxAssociationDt(Stream::kRgb), kTimestampResolutionS);
@@ -462,7 +442,7 @@ TEST(ScanAssociation, SingleFramesPairOnlyAtEqualTimesAndDisjointStreamsWarn) {
 // TUM RGB-D sequence with an external rig
 
 TEST(ScanTum, OpensWithExternalRigAndDepthScale5000) {
-  const fs::path root = TestFolder();
+  const fs::path root = hw::test::TestFolder();
   const fs::path tum = root / "rgbd_dataset_freiburg1_xyz";
   fs::create_directories(tum / "rgb");
   fs::create_directories(tum / "depth");
@@ -563,7 +543,7 @@ fs::path WriteSmallScan(const fs::path& folder, int frames = 6) {
 }
 
 TEST(ScanFrames, MissingFilesAndGapsAreWarningsAndTheScanLoads) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   // Depth: 30 Hz with one 0.5 s gap between frames 9 and 10.
   std::vector<double> depth = Times(10, 0.0, 1.0 / 30.0);
   for (const double t : Times(10, 0.8, 1.0 / 30.0)) depth.push_back(t);
@@ -591,7 +571,7 @@ TEST(ScanFrames, MissingFilesAndGapsAreWarningsAndTheScanLoads) {
 }
 
 TEST(ScanFrames, ManyMissingFilesAreSummarised) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   WriteIndexOnlyScan(folder, TestRig(), Times(50, 0, 0.1), {}, {});
   const Scan scan = Scan::Open(folder);
   EXPECT_EQ(scan.NumMissingFrames(Stream::kDepth), 50);
@@ -602,7 +582,7 @@ TEST(ScanFrames, ManyMissingFilesAreSummarised) {
 }
 
 TEST(ScanFrames, CorruptWrongTypeAndWrongSizeFramesAreInputErrors) {
-  const fs::path folder = WriteSmallScan(TestFolder());
+  const fs::path folder = WriteSmallScan(hw::test::TestFolder());
   const Scan scan = Scan::Open(folder);
   ASSERT_TRUE(scan.warnings().empty()) << scan.warnings()[0];
   EXPECT_FLOAT_EQ(scan.LoadDepth(2).at<float>(3, 3), 1.2f);
@@ -681,7 +661,7 @@ TEST(ScanFrames, CorruptWrongTypeAndWrongSizeFramesAreInputErrors) {
 // Summary
 
 TEST(ScanSummary, NumbersOfASyntheticFolder) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::TestFolder();
   // Depth 30 Hz, 0..2 s, with frames 30..32 dropped (one gap of 4 periods = 0.1333 s).
   std::vector<double> depth;
   for (int i = 0; i < 61; ++i) {

@@ -18,6 +18,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/scan.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
@@ -28,28 +29,6 @@ std::string Sci(double value) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.3e", value);
   return buf;
-}
-
-// This process's temporary folder, removed when the tests end.
-const fs::path& TestRoot() {
-  struct Root {
-    fs::path path =
-        fs::path(::testing::TempDir()) / ("scan_writer_test_" + std::to_string(::getpid()));
-    ~Root() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Root root;
-  return root.path;
-}
-
-// A fresh folder per test.
-fs::path TestFolder() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path folder = TestRoot() / (std::string(info->test_suite_name()) + "." + info->name());
-  fs::remove_all(folder);
-  return folder;
 }
 
 // A small rig (small images keep the tests fast): depth and rgb 32x24, thermal 16x12.
@@ -66,7 +45,7 @@ Rig TestRig(double depth_scale = 1000.0) {
 }
 
 TEST(ScanWriter, DepthRoundTripWithinHalfARawUnit) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   const Rig rig = TestRig(5000.0);  // TUM's scale: 0.2 mm per unit, range up to 13.1 m
   ScanWriter writer(folder, rig);
   std::mt19937 rng(7);
@@ -120,7 +99,7 @@ TEST(ScanWriter, DepthRoundTripWithinHalfARawUnit) {
 }
 
 TEST(ScanWriter, RgbRoundTripIsExactAndFilesAreBgr) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   cv::Mat rgb(24, 32, CV_8UC3);
   cv::randu(rgb, 0, 256);
@@ -139,7 +118,7 @@ TEST(ScanWriter, RgbRoundTripIsExactAndFilesAreBgr) {
 }
 
 TEST(ScanWriter, ThermalRawCountsWithinHalfRawScale) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   const Rig rig = TestRig();
   ScanWriter writer(folder, rig);
   std::mt19937 rng(11);
@@ -176,7 +155,7 @@ TEST(ScanWriter, ThermalRawCountsWithinHalfRawScale) {
 }
 
 TEST(ScanWriter, ThermalFloatTiffIsExact) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   std::mt19937 rng(13);
   std::uniform_real_distribution<float> temperature(-100.0f, 2000.0f);
@@ -197,7 +176,7 @@ TEST(ScanWriter, ThermalFloatTiffIsExact) {
 }
 
 TEST(ScanWriter, TimestampsRoundTripToTheMicrosecond) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   const cv::Mat depth = cv::Mat::ones(24, 32, CV_32FC1);
   const cv::Mat thermal = cv::Mat(12, 16, CV_32FC1, cv::Scalar(25.0f));
@@ -232,7 +211,7 @@ TEST(ScanWriter, TimestampsRoundTripToTheMicrosecond) {
 }
 
 TEST(ScanWriter, IndexFilesHaveTumHeaderAndOnlyWrittenStreams) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   writer.AddDepth(0.5, cv::Mat::ones(24, 32, CV_32FC1));
   writer.Finish();
@@ -263,7 +242,7 @@ TEST(ScanWriter, IndexFilesHaveTumHeaderAndOnlyWrittenStreams) {
 }
 
 TEST(ScanWriter, FinishCanBeCalledAgainAfterMoreFrames) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   const cv::Mat depth = cv::Mat::ones(24, 32, CV_32FC1);
   writer.AddDepth(0.0, depth);
@@ -277,7 +256,7 @@ TEST(ScanWriter, FinishCanBeCalledAgainAfterMoreFrames) {
 }
 
 TEST(ScanWriter, GroundTruthRoundTrip) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   ScanWriter writer(folder, TestRig());
   writer.AddDepth(0.0, cv::Mat::ones(24, 32, CV_32FC1));
   Trajectory trajectory;
@@ -299,7 +278,7 @@ TEST(ScanWriter, GroundTruthRoundTrip) {
 }
 
 TEST(ScanWriter, UnwritableFolderIsOutputError) {
-  const fs::path folder = TestFolder();
+  const fs::path folder = hw::test::FreshPath();
   fs::create_directories(folder);
   WriteFileAtomically(folder / "file", "x");
   // A folder cannot be created below a regular file.

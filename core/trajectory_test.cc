@@ -12,19 +12,13 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("hw_trajectory_test_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 Rigid3d RandomPose(std::mt19937& rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -120,7 +114,7 @@ TEST(TrajectoryTest, GapsAreNotBridged) {
 }
 
 TEST(TrajectoryTest, WriteReadRoundTripIsExact) {
-  const fs::path dir = FreshDir("round_trip");
+  const fs::path dir = hw::test::TestFolder("round_trip");
   std::mt19937 rng(2);
   const Trajectory trajectory = RandomTrajectory(rng, 200);
   const fs::path path = dir / "sub" / "groundtruth.txt";
@@ -214,13 +208,13 @@ TEST(TrajectoryTest, QuaternionNormToleranceBoundary) {
 }
 
 TEST(TrajectoryTest, MissingFileIsInputError) {
-  const fs::path dir = FreshDir("missing");
+  const fs::path dir = hw::test::TestFolder("missing");
   EXPECT_THROW(ReadTumTrajectory(dir / "nope.txt"), InputError);
   EXPECT_THROW(ReadTumTrajectory(dir), InputError);  // a folder
 }
 
 TEST(TrajectoryTest, WriteToUnwritablePlaceIsOutputError) {
-  const fs::path dir = FreshDir("unwritable");
+  const fs::path dir = hw::test::TestFolder("unwritable");
   std::ofstream(dir / "file") << "x";
   Trajectory trajectory;
   trajectory.Add(1.0, Rigid3d::Identity());
@@ -231,7 +225,7 @@ TEST(TrajectoryTest, WriteToUnwritablePlaceIsOutputError) {
 TEST(TrajectoryTest, FuzzReturnsOrThrowsInputError) {
   std::mt19937 rng(1234);
   const Trajectory trajectory = RandomTrajectory(rng, 6);
-  const fs::path dir = FreshDir("fuzz");
+  const fs::path dir = hw::test::TestFolder("fuzz");
   WriteTumTrajectory(dir / "t.txt", trajectory);
   const std::string valid = ReadFile(dir / "t.txt");
   int parsed = 0, rejected = 0;

@@ -1,43 +1,22 @@
 // End-to-end tests of the `heatwave` executable: exit codes, one-line errors, no crash
 // on bad input.
-#include <sys/wait.h>
-
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "core/atomic_file.h"
+#include "tests/support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-
-struct Result {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
+using hw::test::CountLines;
+using Result = hw::test::CommandResult;
 
 // Runs the heatwave executable with `args` (already shell-quoted where needed).
 Result Heatwave(const std::string& args) {
-  const std::string command = std::string(HW_HEATWAVE_EXE) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return result;
-}
-
-int CountLines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
+  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
 }
 
 TEST(Cli, UsageAndHelp) {
@@ -60,8 +39,7 @@ TEST(Cli, BadOptionsAreExitCode2) {
 }
 
 TEST(Cli, MissingScanIsOneClearLine) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "hw_cli_missing_scan";
-  fs::remove_all(dir);
+  const fs::path dir = hw::test::FreshPath("scan");
   const Result r = Heatwave("scan-info " + dir.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_EQ(CountLines(r.output), 1) << r.output;
@@ -70,8 +48,7 @@ TEST(Cli, MissingScanIsOneClearLine) {
 }
 
 TEST(Cli, MalformedRigIsOneClearLineNamingKey) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "hw_cli_bad_rig";
-  fs::remove_all(dir);
+  const fs::path dir = hw::test::TestFolder("scan");
   hw::core::WriteFileAtomically(dir / "depth.txt", "");
   hw::core::WriteFileAtomically(dir / "rig.yaml",
                                 "version: 1\ndepth_scale: 1000.0\ncameras:\n  depth:\n"

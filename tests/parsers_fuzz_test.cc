@@ -16,6 +16,7 @@
 #include "core/rig.h"
 #include "core/scan.h"
 #include "core/trajectory.h"
+#include "tests/support.h"
 
 namespace hw::core {
 namespace {
@@ -66,8 +67,8 @@ std::string PlyText(PlyFormat format) {
   mesh.AddProperty("confidence", PlyType::kFloat64, {0.1, 0.2, 0.3, 1});
   mesh.SetColors({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {9, 9, 9}});
   mesh.faces = {{0, 1, 2}, {1, 3, 2}};
-  const auto path = std::filesystem::path(::testing::TempDir()) /
-                    ("hw_fuzz_" + std::to_string(static_cast<int>(format)) + ".ply");
+  const auto path =
+      hw::test::TestFolder() / ("mesh" + std::to_string(static_cast<int>(format)) + ".ply");
   WritePly(path, mesh, format);
   return ReadFile(path);
 }

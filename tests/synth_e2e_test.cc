@@ -1,9 +1,5 @@
 // End-to-end tests of `heatwave synth`: the executable renders scan folders that open as
 // scans, refuses to clobber folders, and maps bad options to exit code 2 with one line.
-#include <sys/wait.h>
-
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -12,44 +8,19 @@
 
 #include "core/atomic_file.h"
 #include "core/scan.h"
+#include "tests/support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-using hw::core::Stream;
-
-struct Result {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
+using hw::test::CountLines;
+using hw::test::FreshPath;
 
 // Runs the heatwave executable with `args` (already shell-quoted where needed).
-Result Heatwave(const std::string& args) {
-  const std::string command = std::string(HW_HEATWAVE_EXE) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
-    result.output.append(buffer.data(), n);
-  }
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return result;
+hw::test::CommandResult Heatwave(const std::string& args) {
+  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
 }
-
-int CountLines(const std::string& s) {
-  int n = 0;
-  for (const char c : s) n += c == '\n';
-  return n;
-}
-
-fs::path Folder(const std::string& name) {
-  const fs::path folder = fs::path(::testing::TempDir()) / "hw_synth_e2e" / name;
-  fs::remove_all(folder);
-  return folder;
-}
+using hw::core::Stream;
 
 std::map<std::string, std::string> ReadTree(const fs::path& folder) {
   std::map<std::string, std::string> files;
@@ -62,7 +33,7 @@ std::map<std::string, std::string> ReadTree(const fs::path& folder) {
 }
 
 TEST(SynthCli, ListsScenesAndSessions) {
-  const Result r = Heatwave("synth --list");
+  const hw::test::CommandResult r = Heatwave("synth --list");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("equipment-small"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("latency"), std::string::npos) << r.output;
@@ -71,8 +42,8 @@ TEST(SynthCli, ListsScenesAndSessions) {
 }
 
 TEST(SynthCli, RendersAScanThatOpens) {
-  const fs::path out = Folder("scan") / "scan";
-  const Result r = Heatwave(
+  const fs::path out = FreshPath("scan") / "scan";
+  const hw::test::CommandResult r = Heatwave(
       "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
       "--perturb-rig --out " +
       out.string());
@@ -90,8 +61,8 @@ TEST(SynthCli, RendersAScanThatOpens) {
   EXPECT_TRUE(fs::exists(out / "truth" / "hotspots.yaml"));
 
   // Same options and seed: the same bytes; --quiet prints nothing.
-  const fs::path again = Folder("again") / "scan";
-  const Result q = Heatwave(
+  const fs::path again = FreshPath("again") / "scan";
+  const hw::test::CommandResult q = Heatwave(
       "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
       "--perturb-rig --quiet --out " +
       again.string());
@@ -101,31 +72,31 @@ TEST(SynthCli, RendersAScanThatOpens) {
 }
 
 TEST(SynthCli, RefusesANonEmptyFolderUnlessOverwrite) {
-  const fs::path out = Folder("busy");
+  const fs::path out = FreshPath("busy");
   hw::core::WriteFileAtomically(out / "notes.txt", "mine\n");
   hw::core::WriteFileAtomically(out / "depth" / "1.000000.png", "stale");
   const std::string args = "synth --scene building-small --duration 0.1 -q --out " + out.string();
-  const Result refused = Heatwave(args);
+  const hw::test::CommandResult refused = Heatwave(args);
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
   EXPECT_EQ(CountLines(refused.output), 1) << refused.output;
   EXPECT_NE(refused.output.find("--overwrite"), std::string::npos) << refused.output;
   EXPECT_FALSE(fs::exists(out / "rig.yaml"));
 
-  const Result replaced = Heatwave(args + " --overwrite");
+  const hw::test::CommandResult replaced = Heatwave(args + " --overwrite");
   EXPECT_EQ(replaced.exit_code, 0) << replaced.output;
   EXPECT_TRUE(fs::exists(out / "notes.txt"));                // not ours: kept
   EXPECT_FALSE(fs::exists(out / "depth" / "1.000000.png"));  // the old scan's: gone
   EXPECT_EQ(hw::core::Scan::Open(out).NumFrames(Stream::kDepth), 3);
 
-  const fs::path file = Folder("file") / "f";
+  const fs::path file = FreshPath("file") / "f";
   hw::core::WriteFileAtomically(file, "x");
-  const Result not_a_folder = Heatwave("synth --scene building-small --out " + file.string());
+  const hw::test::CommandResult not_a_folder = Heatwave("synth --scene building-small --out " + file.string());
   EXPECT_EQ(not_a_folder.exit_code, 2) << not_a_folder.output;
   EXPECT_NE(not_a_folder.output.find("not a folder"), std::string::npos) << not_a_folder.output;
 }
 
 TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
-  const std::string out = " --out " + Folder("bad").string();
+  const std::string out = " --out " + FreshPath("bad").string();
   const std::pair<std::string, std::string> cases[] = {
       {"synth --scene garage" + out, "known: equipment"},
       {"synth --scene equipment-small --duration -1" + out, "duration_s"},
@@ -140,17 +111,17 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
       {"synth --session tea-time" + out, "known: intrinsics-thermal"},
   };
   for (const auto& [args, needle] : cases) {
-    const Result r = Heatwave(args);
+    const hw::test::CommandResult r = Heatwave(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
     EXPECT_NE(r.output.find(needle), std::string::npos) << args << "\n" << r.output;
     EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << args << "\n" << r.output;
   }
-  EXPECT_FALSE(fs::exists(Folder("bad") / "rig.yaml"));
+  EXPECT_FALSE(fs::exists(FreshPath("bad") / "rig.yaml"));
 }
 
 TEST(SynthCli, RendersACalibrationSession) {
-  const fs::path out = Folder("session");
-  const Result r = Heatwave("synth --session intrinsics-thermal -q --out " + out.string());
+  const fs::path out = FreshPath("session");
+  const hw::test::CommandResult r = Heatwave("synth --session intrinsics-thermal -q --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
   EXPECT_GT(hw::core::Scan::Open(out).NumFrames(Stream::kThermal), 0);

@@ -1,0 +1,79 @@
+#include "tests/support.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <system_error>
+
+#include <gtest/gtest.h>
+
+namespace hw::test {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path& ProcessRoot() {
+  struct Root {
+    fs::path path = fs::path(::testing::TempDir()) / ("heatwave-" + std::to_string(::getpid()));
+    ~Root() {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  };
+  static const Root root;
+  return root.path;
+}
+
+fs::path PathForTest(const std::string& name) {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  fs::path path = ProcessRoot() / (info != nullptr ? std::string(info->test_suite_name()) + "." +
+                                                         info->name()
+                                                   : std::string("no-test"));
+  if (!name.empty()) path /= name;
+  return path;
+}
+
+}  // namespace
+
+fs::path TestFolder(const std::string& name) {
+  const fs::path path = PathForTest(name);
+  fs::remove_all(path);
+  fs::create_directories(path);
+  return path;
+}
+
+fs::path FreshPath(const std::string& name) {
+  const fs::path path = PathForTest(name);
+  fs::remove_all(path);
+  fs::create_directories(path.parent_path());
+  return path;
+}
+
+Argv::Argv(std::vector<std::string> args) : storage_(std::move(args)) {
+  for (auto& s : storage_) pointers_.push_back(s.data());
+}
+
+CommandResult RunCommand(const std::string& command) {
+  CommandResult result;
+  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+    result.output.append(buffer.data(), n);
+  }
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return result;
+}
+
+int CountLines(const std::string& s) {
+  int n = 0;
+  for (const char c : s) n += c == '\n';
+  return n;
+}
+
+}  // namespace hw::test

@@ -1,0 +1,43 @@
+#pragma once
+
+// Test support shared by every test executable (linked by hw_add_test).
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace hw::test {
+
+// A fresh, empty folder for the running test:
+//   <gtest TempDir>/heatwave-<pid>/<Suite>.<Test>[/<name>]
+// The per-process root is removed when the test program exits, so tests running in
+// parallel (ctest runs each TEST in its own process) never share files and reruns start
+// clean. FreshPath is the same path, absent (its parent exists): for writers that must
+// create their output folder themselves.
+std::filesystem::path TestFolder(const std::string& name = "");
+std::filesystem::path FreshPath(const std::string& name = "");
+
+// argc/argv for calling a command's Run* function directly.
+class Argv {
+ public:
+  explicit Argv(std::vector<std::string> args);
+  int argc() const { return static_cast<int>(pointers_.size()); }
+  char** argv() { return pointers_.data(); }
+
+ private:
+  std::vector<std::string> storage_;
+  std::vector<char*> pointers_;
+};
+
+// Runs a shell command; stdout and stderr together, and the exit code (128 + signal when
+// killed by one).
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;
+};
+CommandResult RunCommand(const std::string& command);
+
+// Number of '\n' in s.
+int CountLines(const std::string& s);
+
+}  // namespace hw::test
