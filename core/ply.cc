@@ -1113,21 +1113,7 @@ PlyMesh ParsePly(std::string_view data, const fs::path& path_for_errors) {
   return mesh;
 }
 
-PlyMesh ReadPly(const fs::path& path) {
-  // One read into a buffer of the file's size: twice as fast for big meshes as streaming
-  // through a stringstream.
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec || !fs::is_regular_file(path, ec)) return ParsePly(ReadFile(path), path);  // its errors
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) return ParsePly(ReadFile(path), path);
-  std::string data(size, '\0');
-  const size_t got = std::fread(data.data(), 1, size, file);
-  const bool more = std::fgetc(file) != EOF;  // the file grew after file_size
-  std::fclose(file);
-  if (got != size || more) return ParsePly(ReadFile(path), path);  // changed while reading
-  return ParsePly(data, path);
-}
+PlyMesh ReadPly(const fs::path& path) { return ParsePly(ReadFile(path), path); }
 
 // ---------------------------------------------------------------------------------------
 // Public: writing
