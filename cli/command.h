@@ -4,7 +4,12 @@
 #include <string>
 #include <vector>
 
+// CLI11 2.1's string helpers trip GCC 12's -Wnull-dereference (a false positive through
+// libstdc++'s inlined std::string): silence it for this third-party header only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <CLI/CLI.hpp>
+#pragma GCC diagnostic pop
 
 namespace hw::cli {
 
