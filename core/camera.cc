@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <system_error>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -85,20 +86,59 @@ CameraModel CameraModel::Pinhole(int width, int height, double fx, double fy) {
   return model;
 }
 
+namespace {
+
+// FormatNumber with a plain exponent, "1e6" and "1e300" rather than to_chars' "1e+06".
+std::string TidyNumber(double value) {
+  std::string text = FormatNumber(value);
+  const size_t e = text.find('e');
+  if (e == std::string::npos) return text;
+  size_t digits = e + 1;
+  if (text[digits] == '+') {
+    text.erase(digits, 1);
+  } else if (text[digits] == '-') {
+    ++digits;
+  }
+  while (digits + 1 < text.size() && text[digits] == '0') text.erase(digits, 1);
+  return text;
+}
+
+// "" when lo <= value <= hi, else "<field>: must be in [lo, hi] px, got <value>" ("must be
+// finite" for NaN and inf).
+std::string CheckRangePx(const std::string& field, double value, double lo, double hi) {
+  if (!std::isfinite(value)) return field + ": must be finite, got " + FormatNumber(value);
+  if (value >= lo && value <= hi) return "";
+  return field + ": must be in [" + TidyNumber(lo) + ", " + TidyNumber(hi) + "] px, got " +
+         TidyNumber(value);
+}
+
+}  // namespace
+
 std::string CameraModel::Check() const {
-  if (width <= 0) return MustBePositive("width", width);
-  if (height <= 0) return MustBePositive("height", height);
+  // Sizes first: the principal point's range depends on them.
+  const std::array<std::pair<const char*, int>, 2> sizes{{{"width", width}, {"height", height}}};
+  for (const auto& [name, value] : sizes) {
+    if (value < 1 || value > kMaxSidePx) {
+      return std::string(name) + ": must be in [1, " + std::to_string(kMaxSidePx) + "] px, got " +
+             std::to_string(value);
+    }
+  }
   const std::array<std::pair<const char*, double>, 2> focals{{{"fx", fx}, {"fy", fy}}};
   for (const auto& [name, value] : focals) {
-    if (std::isnan(value) || std::isinf(value)) {
-      return std::string(name) + ": must be finite, got " + FormatNumber(value);
+    if (std::string problem = CheckRangePx(name, value, kMinFocalPx, kMaxFocalPx);
+        !problem.empty()) {
+      return problem;
     }
-    if (value <= 0) return MustBePositive(name, value);
   }
-  const std::array<std::pair<const char*, double>, 2> centre{{{"cx", cx}, {"cy", cy}}};
-  for (const auto& [name, value] : centre) {
+  const std::array<std::tuple<const char*, double, int, const char*>, 2> centre{
+      {{"cx", cx, width, "width"}, {"cy", cy, height, "height"}}};
+  for (const auto& [name, value, size, side] : centre) {
     if (!std::isfinite(value)) {
-      return std::string(name) + ": must be finite, got " + FormatNumber(value);
+      return std::string(name) + ": must be finite, got " + TidyNumber(value);
+    }
+    if (!(value >= -size && value <= 2.0 * size)) {
+      return std::string(name) + ": must be in [-" + side + ", 2 " + side + "] = [" +
+             TidyNumber(-size) + ", " + TidyNumber(2.0 * size) + "] px, got " + TidyNumber(value);
     }
   }
   const size_t n = distortion.size();
@@ -115,9 +155,13 @@ std::string CameraModel::Check() const {
       break;
   }
   for (size_t i = 0; i < n; ++i) {
+    const std::string field = "distortion[" + std::to_string(i) + "]";
     if (!std::isfinite(distortion[i])) {
-      return "distortion[" + std::to_string(i) + "]: must be finite, got " +
-             FormatNumber(distortion[i]);
+      return field + ": must be finite, got " + FormatNumber(distortion[i]);
+    }
+    if (!(std::abs(distortion[i]) <= kMaxAbsDistortion)) {
+      return field + ": must be in [-" + TidyNumber(kMaxAbsDistortion) + ", " +
+             TidyNumber(kMaxAbsDistortion) + "], got " + TidyNumber(distortion[i]);
     }
   }
   return "";

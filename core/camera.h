@@ -30,7 +30,21 @@ struct UndistortOptions {
 //
 // Parameters, in this order (Params()/SetParams(), intrinsic Jacobians):
 //   fx fy cx cy  [k1 k2 p1 p2 [k3 [k4 k5 k6]]]
+//
+// Ranges (Check(), so rig.yaml and .cameramodel readers and writers all hold to them):
+//   width, height  [1, 16384] px: beyond the largest sensors (150 MP is 14204 x 10652), and
+//                  width * height stays far inside int
+//   fx, fy         [1, 1e6] px: 1 px is a ~150° view on an 8 px image; 1e6 px a 1000 mm
+//                  lens on 1 µm pixels. Below 1 a denormal (1e-320) would make 1/fx inf
+//   cx             [-width, 2 width] px, cy [-height, 2 height] px: off-centre crops and
+//                  shift lenses put it off the image, but not a whole image further
+//   distortion     |k| <= 1e4 each: OpenCV's rational model on wide lenses reaches tens
+//                  to hundreds (numerator and denominator nearly cancel), real k are < 1e3
 struct CameraModel {
+  static constexpr int kMaxSidePx = 16384;
+  static constexpr double kMinFocalPx = 1, kMaxFocalPx = 1e6;
+  static constexpr double kMaxAbsDistortion = 1e4;
+
   int width = 0;   // pixels
   int height = 0;  // pixels
   CameraModelType type = CameraModelType::kPinhole;
@@ -42,8 +56,8 @@ struct CameraModel {
   static CameraModel Pinhole(int width, int height, double fx, double fy);
 
   // "" when the model is valid, else one message naming the field, value and constraint
-  // (e.g. "fx: must be > 0, got -3"). Checked: size > 0, focal lengths > 0 and finite,
-  // principal point finite, distortion size (0 for pinhole; 4, 5 or 8 for opencv), finite.
+  // (e.g. "fx: must be in [1, 1e6] px, got 1e-320"). Checked: the ranges above (NaN and
+  // inf are "must be finite"), distortion size (0 for pinhole; 4, 5 or 8 for opencv).
   std::string Check() const;
 
   int NumParams() const { return 4 + static_cast<int>(distortion.size()); }

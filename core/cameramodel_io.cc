@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -14,6 +15,8 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/mrcal_c.h"
+#include "core/rig.h"
+#include "core/yaml_reader.h"
 
 namespace hw::core {
 namespace {
@@ -93,6 +96,23 @@ MrcalModelPtr ParseWithMrcal(const std::string& text) {
   return MrcalModelPtr(mrcal_read_cameramodel_string(padded.c_str(), 0));
 }
 
+// "" when mrcal's extrinsics are plausible, else a message: r finite with |r| <= 4 pi
+// (mrcal's solver leaves r within a turn or so of 0; at 1e300 rad the rotation is
+// arbitrary, every bit of the angle lost to cos/sin's argument reduction) and t as rig.yaml's
+// extrinsic translations (CheckExtrinsicTranslation, rig.h: at most 10 m).
+std::string CheckMrcalExtrinsics(const Eigen::Vector3d& r, const Eigen::Vector3d& t) {
+  constexpr double kMaxRotationRad = 4 * std::numbers::pi;
+  if (!(r.norm() <= kMaxRotationRad)) {
+    return "extrinsics: the rotation (Rodrigues vector, rad) must be finite and at most 4 pi "
+           "long, got [" +
+           MessageNumber(r.x()) + ", " + MessageNumber(r.y()) + ", " + MessageNumber(r.z()) + "]";
+  }
+  if (const std::string problem = CheckExtrinsicTranslation(t); !problem.empty()) {
+    return "extrinsics: the translation " + problem;
+  }
+  return "";
+}
+
 }  // namespace
 
 Eigen::Vector3d RodriguesFromQuaternion(const Eigen::Quaterniond& q_in) {
@@ -129,6 +149,7 @@ std::string MrcalLensModelName(const CameraModel& camera) {
 
 std::string FormatMrcalCameraModel(const CameraModel& camera, const Rigid3d& camera_from_ref) {
   assert(camera.Check().empty());
+  assert(CheckExtrinsicTranslation(camera_from_ref.translation).empty());
   const Eigen::VectorXd intrinsics = camera.Params();
   std::array<double, 6> rt{};
   const Eigen::Vector3d r = RodriguesFromQuaternion(camera_from_ref.rotation);
@@ -166,17 +187,18 @@ void WriteMrcalCameraModel(const fs::path& path, const CameraModel& camera,
   WriteFileAtomically(path, FormatMrcalCameraModel(camera, camera_from_ref));
 }
 
-MrcalCameraModel ParseMrcalCameraModel(const std::string& text, const fs::path& path_for_errors) {
+MrcalCameraModel ParseMrcalCameraModel(const std::string& raw_text,
+                                       const fs::path& path_for_errors) {
   const fs::path& path = path_for_errors;
-  if (text.empty()) throw InputError(path, "empty file, expected an mrcal .cameramodel");
-  if (text.find('\0') != std::string::npos) {
-    throw InputError(path, "holds 0 bytes: not an mrcal .cameramodel text");
-  }
+  // The same text rules as rig.yaml: BOM dropped, line ends made LF (libmrcal takes neither
+  // a BOM nor CR-only lines), NUL and control characters refused with their position.
+  const std::string text = PrepareConfigText(raw_text, path);
+  if (text.empty()) ThrowInputError(path, "empty file, expected an mrcal .cameramodel");
   const MrcalModelPtr model = ParseWithMrcal(text);
   if (model == nullptr) {
-    throw InputError(path,
-                     "not a valid mrcal .cameramodel (libmrcal's parser rejected it; its "
-                     "reason is on stderr)");
+    ThrowInputError(path,
+                    "not a valid mrcal .cameramodel (libmrcal's parser rejected it; its "
+                    "reason is on stderr)");
   }
 
   MrcalCameraModel result;
@@ -199,17 +221,18 @@ MrcalCameraModel ParseMrcalCameraModel(const std::string& text, const fs::path& 
       num_distortion = 8;
       break;
     default:
-      throw InputError(path, "lensmodel: " + LensModelName(model->lensmodel) +
-                                 " is not supported (heatwave reads LENSMODEL_PINHOLE and "
-                                 "LENSMODEL_OPENCV4, 5 and 8)");
+      ThrowInputError(path, "lensmodel: " + LensModelName(model->lensmodel) +
+                                " is not supported (heatwave reads LENSMODEL_PINHOLE and "
+                                "LENSMODEL_OPENCV4, 5 and 8)");
   }
   // mrcal sized intrinsics[] for its model; ours has the same count.
   assert(mrcal_lensmodel_num_params(&model->lensmodel) == 4 + num_distortion);
 
+  // CameraModel::Check bounds the size far lower; this keeps the conversion to int exact.
   for (int i = 0; i < 2; ++i) {
     if (model->imagersize[i] > static_cast<unsigned>(INT_MAX)) {
-      throw InputError(path,
-                       "imagersize: " + std::to_string(model->imagersize[i]) + " is too large");
+      ThrowInputError(path,
+                      "imagersize: " + std::to_string(model->imagersize[i]) + " is too large");
     }
   }
   camera.width = static_cast<int>(model->imagersize[0]);
@@ -218,8 +241,10 @@ MrcalCameraModel ParseMrcalCameraModel(const std::string& text, const fs::path& 
   for (int i = 0; i < params.size(); ++i) params[i] = model->intrinsics[i];
   camera.distortion.resize(num_distortion);
   camera.SetParams(params);
+  // The ranges of rig.yaml's cameras (camera.h): a calibration heatwave imports must be one
+  // it could write into a rig.
   if (const std::string problem = camera.Check(); !problem.empty()) {
-    throw InputError(path, "invalid camera: " + problem);
+    ThrowInputError(path, "invalid camera: " + problem);
   }
 
   Eigen::Vector3d r, t;
@@ -227,14 +252,16 @@ MrcalCameraModel ParseMrcalCameraModel(const std::string& text, const fs::path& 
     r[i] = model->rt_cam_ref[i];
     t[i] = model->rt_cam_ref[3 + i];
   }
-  if (!r.allFinite() || !t.allFinite()) throw InputError(path, "extrinsics: must be finite");
+  if (const std::string problem = CheckMrcalExtrinsics(r, t); !problem.empty()) {
+    ThrowInputError(path, problem);
+  }
   result.camera_from_ref.rotation = QuaternionFromRodrigues(r);
   result.camera_from_ref.translation = t;
   return result;
 }
 
 MrcalCameraModel ReadMrcalCameraModel(const fs::path& path) {
-  return ParseMrcalCameraModel(ReadFile(path), path);
+  return ParseMrcalCameraModel(ReadFile(path, kMaxConfigFileBytes), path);
 }
 
 }  // namespace hw::core

@@ -35,7 +35,9 @@ std::string MrcalLensModelName(const CameraModel& camera);
 // round-trip form so that ParseMrcalCameraModel gives back the same doubles bit for bit.
 // (libmrcal 2.2's mrcal_write_cameramodel_file prints "%f", i.e. 6 decimals: 1e-7 distortion
 // coefficients would be written as 0, hence this formatter. Every text it produces is
-// checked by parsing it back with libmrcal's parser.) Asserts camera.Check() is empty.
+// checked by parsing it back with libmrcal's parser.) Asserts camera.Check() is empty and
+// the translation within CheckExtrinsicTranslation's 10 m (rig.h), so that whatever is
+// written reads back.
 std::string FormatMrcalCameraModel(const CameraModel& camera,
                                    const Rigid3d& camera_from_ref = Rigid3d());
 
@@ -43,11 +45,14 @@ std::string FormatMrcalCameraModel(const CameraModel& camera,
 void WriteMrcalCameraModel(const std::filesystem::path& path, const CameraModel& camera,
                            const Rigid3d& camera_from_ref = Rigid3d());
 
-// Reads a .cameramodel file with libmrcal's parser (mrcal_read_cameramodel_string).
-// Throws InputError naming the path when the file is unreadable, malformed (libmrcal then
-// also prints its own diagnostic to stderr), uses a lens model other than the four above
-// (the message names it), or holds an invalid camera (non-positive focal length, ...) or
-// non-finite extrinsics.
+// Reads a .cameramodel file with libmrcal's parser (mrcal_read_cameramodel_string), after
+// the text rules of every config file (PrepareConfigText: a UTF-8 BOM and CR or CRLF line
+// ends are accepted, a NUL or control character is an error naming line and column; files
+// over 1 MiB are refused). Throws InputError, one line naming the path, when the file is
+// unreadable, malformed (libmrcal then also prints its own diagnostic to stderr), uses a
+// lens model other than the four above (the message names it), holds a camera outside
+// CameraModel::Check's ranges (camera.h: e.g. fx in [1, 1e6] px, imagersize at most 16384),
+// or extrinsics with a rotation vector longer than 4 pi rad or a translation over 10 m.
 MrcalCameraModel ReadMrcalCameraModel(const std::filesystem::path& path);
 MrcalCameraModel ParseMrcalCameraModel(const std::string& text,
                                        const std::filesystem::path& path_for_errors);
