@@ -171,12 +171,12 @@ TEST(CameraModelTest, CheckNamesFieldValueAndConstraint) {
     std::string message;
   };
   const std::vector<Case> cases = {
-      {[](CameraModel& m) { m.width = 0; }, "width: must be > 0, got 0"},
-      {[](CameraModel& m) { m.width = -640; }, "width: must be > 0, got -640"},
-      {[](CameraModel& m) { m.height = 0; }, "height: must be > 0, got 0"},
-      {[](CameraModel& m) { m.fx = -525; }, "fx: must be > 0, got -525"},
-      {[](CameraModel& m) { m.fx = 0; }, "fx: must be > 0, got 0"},
-      {[](CameraModel& m) { m.fy = -0.1; }, "fy: must be > 0, got -0.1"},
+      {[](CameraModel& m) { m.width = 0; }, "width: must be in [1, 16384] px, got 0"},
+      {[](CameraModel& m) { m.width = -640; }, "width: must be in [1, 16384] px, got -640"},
+      {[](CameraModel& m) { m.height = 0; }, "height: must be in [1, 16384] px, got 0"},
+      {[](CameraModel& m) { m.fx = -525; }, "fx: must be in [1, 1e6] px, got -525"},
+      {[](CameraModel& m) { m.fx = 0; }, "fx: must be in [1, 1e6] px, got 0"},
+      {[](CameraModel& m) { m.fy = -0.1; }, "fy: must be in [1, 1e6] px, got -0.1"},
       {[](CameraModel& m) { m.fx = kNaN; }, "fx: must be finite, got nan"},
       {[](CameraModel& m) { m.fy = kInf; }, "fy: must be finite, got inf"},
       {[](CameraModel& m) { m.cx = kNaN; }, "cx: must be finite, got nan"},
@@ -195,6 +195,24 @@ TEST(CameraModelTest, CheckNamesFieldValueAndConstraint) {
       {[](CameraModel& m) { m.distortion[0] = -kInf; }, "distortion[0]: must be finite, got -inf"},
       {[](CameraModel& m) { m.type = CameraModelType::kPinhole; },
        "distortion: pinhole needs 0 coefficients, got 5"},
+      // Values no camera has; each loaded from rig.yaml before: a denormal focal length
+      // makes 1/fx inf, a billion-pixel width overflows width * height.
+      {[](CameraModel& m) { m.fx = 1e-320; }, "fx: must be in [1, 1e6] px, got 1e-320"},
+      {[](CameraModel& m) { m.fy = 0.999; }, "fy: must be in [1, 1e6] px, got 0.999"},
+      {[](CameraModel& m) { m.fx = 1.0000001e6; }, "fx: must be in [1, 1e6] px, got 1000000.1"},
+      {[](CameraModel& m) { m.width = 1000000000; },
+       "width: must be in [1, 16384] px, got 1000000000"},
+      {[](CameraModel& m) { m.height = 16385; }, "height: must be in [1, 16384] px, got 16385"},
+      {[](CameraModel& m) { m.cx = 1e300; },
+       "cx: must be in [-width, 2 width] = [-640, 1280] px, got 1e300"},
+      {[](CameraModel& m) { m.cx = -640.5; },
+       "cx: must be in [-width, 2 width] = [-640, 1280] px, got -640.5"},
+      {[](CameraModel& m) { m.cy = 1024.5; },
+       "cy: must be in [-height, 2 height] = [-512, 1024] px, got 1024.5"},
+      {[](CameraModel& m) { m.distortion[2] = 1e300; },
+       "distortion[2]: must be in [-10000, 10000], got 1e300"},
+      {[](CameraModel& m) { m.distortion[0] = -10000.5; },
+       "distortion[0]: must be in [-10000, 10000], got -10000.5"},
   };
   for (const Case& c : cases) {
     CameraModel model = ThermalModel();
@@ -205,7 +223,25 @@ TEST(CameraModelTest, CheckNamesFieldValueAndConstraint) {
   CameraModel pinhole = CameraModel::Pinhole(640, 480, 525, 525);
   pinhole.distortion = {0, 0, 0, 0};
   EXPECT_EQ(pinhole.Check(), "distortion: pinhole needs 0 coefficients, got 4");
-  EXPECT_EQ(CameraModel().Check(), "width: must be > 0, got 0");
+  EXPECT_EQ(CameraModel().Check(), "width: must be in [1, 16384] px, got 0");
+  // The edges themselves are cameras.
+  const std::vector<std::function<void(CameraModel&)>> edges = {
+      [](CameraModel& m) { m.fx = 1; },
+      [](CameraModel& m) { m.fy = 1e6; },
+      [](CameraModel& m) { m.width = CameraModel::kMaxSidePx; },
+      [](CameraModel& m) { m.cx = -640; },
+      [](CameraModel& m) { m.cy = 1024; },
+      [](CameraModel& m) {
+        m.distortion = {-1e4, 1e4, 5e-324, -1e-300, 0};
+      },
+  };
+  for (const auto& mutate : edges) {
+    CameraModel model = ThermalModel();
+    mutate(model);
+    EXPECT_EQ(model.Check(), "");
+  }
+  EXPECT_EQ(CameraModel::Pinhole(1, 1, 1, 1).Check(), "");
+  EXPECT_EQ(CameraModel::Pinhole(16384, 16384, 1e6, 1e6).Check(), "");
 }
 
 TEST(UndistortOptionsTest, CheckNamesFieldValueAndConstraint) {

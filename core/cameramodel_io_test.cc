@@ -1,12 +1,14 @@
 #include "core/cameramodel_io.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -344,9 +346,9 @@ TEST(CameraModelIoTest, MalformedFilesThrowInputError) {
       {replace("[500, 501, 320, 240]", "[nan, 501, 320, 240]"), "not a valid mrcal .cameramodel"},
       {good + " trailing", "not a valid mrcal .cameramodel"},
       {replace("[500, 501, 320, 240]", "[-500, 501, 320, 240]"),
-       "cam.cameramodel: invalid camera: fx: must be > 0, got -500"},
+       "cam.cameramodel: invalid camera: fx: must be in [1, 1e6] px, got -500"},
       {replace("[500, 501, 320, 240]", "[500, 0, 320, 240]"),
-       "cam.cameramodel: invalid camera: fy: must be > 0, got 0"},
+       "cam.cameramodel: invalid camera: fy: must be in [1, 1e6] px, got 0"},
       {replace("[500, 501, 320, 240]", "[500, 501, 1e999, 240]"), "cam.cameramodel: "},
       {replace("[0, 0, 0, 0, 0, 0]", "[1e999, 0, 0, 0, 0, 0]"), "cam.cameramodel: "},
       {replace("[640, 480]", "[4294967295, 480]"), "cam.cameramodel: "},
@@ -364,7 +366,90 @@ TEST(CameraModelIoTest, MalformedFilesThrowInputError) {
   WriteFileAtomically(dir / "binary.cameramodel", binary);
   QuietStderr quiet;
   EXPECT_THROW(ReadMrcalCameraModel(dir / "binary.cameramodel"), InputError);
-  EXPECT_THAT(ParseError(good + std::string(1, '\0')), HasSubstr("holds 0 bytes"));
+  EXPECT_EQ(ParseError(good + std::string(1, '\0')),
+            "cam.cameramodel: NUL byte at line 1, column " + std::to_string(good.size() + 1));
+}
+
+TEST(CameraModelIoTest, RefusesAbsurdValuesWithRigYamlsRanges) {
+  const std::string good =
+      "{'lensmodel': 'LENSMODEL_OPENCV4', 'intrinsics': [500, 501, 320, 240, -0.3, 0.1, 0, 0],"
+      " 'imagersize': [640, 480], 'extrinsics': [0, 0, 0, 0.03, 0, 0]}";
+  EXPECT_EQ(ParseError(good), "<no error>");
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    std::string text = good;
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? text : text.replace(at, from.size(), to);
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replace("[500, 501,", "[1e-320, 501,"),
+       "cam.cameramodel: invalid camera: fx: must be in [1, 1e6] px, got 1e-320"},
+      {replace("[640, 480]", "[1000000000, 480]"),
+       "cam.cameramodel: invalid camera: width: must be in [1, 16384] px, got 1000000000"},
+      {replace("320, 240,", "320, 1e300,"),
+       "cam.cameramodel: invalid camera: cy: must be in [-height, 2 height] = [-480, 960] px, got "
+       "1e300"},
+      {replace("-0.3, 0.1,", "-0.3, 1e5,"),
+       "cam.cameramodel: invalid camera: distortion[1]: must be in [-10000, 10000], got 1e5"},
+      {replace("0.03, 0, 0]", "1e300, 0, 0]"),
+       "cam.cameramodel: extrinsics: the translation must be at most 10 m long, got [1e300, 0, 0]"},
+      {replace("[0, 0, 0, 0.03", "[1e300, 0, 0, 0.03"),
+       "cam.cameramodel: extrinsics: the rotation (Rodrigues vector, rad) must be finite and at "
+       "most 4 pi long, got [1e300, 0, 0]"},
+  };
+  for (const auto& [text, expected] : cases) {
+    SCOPED_TRACE(text);
+    EXPECT_EQ(ParseError(text), expected);
+  }
+  // Edges: a turn and a half, 10 m.
+  EXPECT_EQ(ParseError(replace("[0, 0, 0, 0.03", "[0, 0, 9.42, 10")), "<no error>");
+}
+
+TEST(CameraModelIoTest, TextRulesAreRigYamls) {
+  const std::string good =
+      "# mrcal model\n{'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [500, 501, 320, 240],\n"
+      " 'imagersize': [640, 480],\n 'extrinsics': [0, 0, 0, 0, 0, 0]}\n";
+  // libmrcal alone refuses a byte order mark and CR-only line ends.
+  for (const std::string bom : {"", "\xEF\xBB\xBF"}) {
+    for (const std::string line_end : {"\n", "\r\n", "\r"}) {
+      std::string text = bom;
+      for (const char c : good) text += c == '\n' ? line_end : std::string(1, c);
+      SCOPED_TRACE(::testing::Message()
+                   << "BOM " << !bom.empty() << " CR " << (line_end[0] == '\r'));
+      EXPECT_EQ(ParseError(text), "<no error>");
+    }
+  }
+  EXPECT_EQ(ParseError("# mrcal\r\n{'lensmodel':\x01 'LENSMODEL_PINHOLE'}"),
+            "cam.cameramodel: control character 0x01 at line 2, column 14");
+  EXPECT_EQ(ParseError("\xFE\xFF{"),
+            "cam.cameramodel: starts with a UTF-16 or UTF-32 byte order mark: save the file as "
+            "UTF-8");
+}
+
+TEST(CameraModelIoTest, OversizedFilesAndFifosAreRefusedAtOnce) {
+  const fs::path dir = hw::test::TestFolder();
+  WriteFileAtomically(dir / "big.cameramodel", std::string(2'000'000, '#'));
+  try {
+    ReadMrcalCameraModel(dir / "big.cameramodel");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.reason(), "file is 2000000 bytes, more than the 1 MiB this kind of file may have");
+  }
+  const fs::path fifo = dir / "fifo.cameramodel";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  const int exit_code = hw::test::RunInChild(
+      [&] {
+        try {
+          ReadMrcalCameraModel(fifo);
+        } catch (const InputError& e) {
+          return std::string(e.what()) == fifo.string() + ": is a FIFO, expected a regular file"
+                     ? 0
+                     : 2;
+        }
+        return 1;
+      },
+      10);
+  EXPECT_EQ(exit_code, 0) << "1: no error, 2: another message, -1: hung";
 }
 
 TEST(CameraModelIoTest, SurvivesLibmrcalOverreads) {
@@ -412,7 +497,12 @@ TEST(CameraModelIoTest, FuzzTruncationsAndMutations) {
       ASSERT_EQ(model.camera.Check(), "");
       ASSERT_TRUE(model.camera_from_ref.rotation.coeffs().allFinite());
       ++accepted;
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+      // One line, whatever bytes the fuzz put in.
+      const std::string what = e.what();
+      ASSERT_TRUE(std::none_of(what.begin(), what.end(), [](char c) {
+        return static_cast<unsigned char>(c) < 0x20;
+      })) << what;
     }
   }
   EXPECT_GT(accepted, 10);

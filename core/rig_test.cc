@@ -7,8 +7,10 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/atomic_file.h"
@@ -401,6 +403,154 @@ TEST(RigTest, ReadsTheFullTestRigAndOptionalForms) {
 }
 
 // ---------------------------------------------------------------------------------------
+// Ranges (rig.h, camera.h): values that parse as numbers but cannot describe a rig.
+
+TEST(RigTest, AbsurdValuesAreRefusedWithKeyValueRangeAndLine) {
+  const std::string full = kFullRig;
+  struct Case {
+    std::string from, to, expected;  // expected: what() up to " (line N)"
+  };
+  const std::vector<Case> cases = {
+      // The values of the review: each loaded before, making depth, temperature or a
+      // projection inf or meaningless.
+      {"depth_scale: 1000.0", "depth_scale: 1e-300",
+       "depth_scale: must be in [1, 1e6] raw units per metre, got 1e-300"},
+      {"raw_scale: 0.01", "raw_scale: 1e300",
+       "thermal.raw_scale: |raw_scale| must be in [1e-6, 10] °C per count (either sign), got "
+       "1e300"},
+      {"fx: 525.0", "fx: 1e-320", "cameras.depth.fx: must be in [1, 1e6] px, got 1e-320"},
+      {"t_m: [-0.025, 0.0, 0.0]", "t_m: [1e300, 0, 0]",
+       "extrinsics.depth_from_rgb.t_m: must be at most 10 m long, got [1e300, 0, 0]"},
+      {"thermal: -0.04", "thermal: 1e300",
+       "time_offset_s.thermal: must be in [-1e10, 1e10] s, got 1e300"},
+      {"width: 640", "width: 1000000000",
+       "cameras.depth.width: must be in [1, 16384] px, got 1000000000"},
+      // One beyond each other bound.
+      {"depth_scale: 1000.0", "depth_scale: 0.5",
+       "depth_scale: must be in [1, 1e6] raw units per metre, got 0.5"},
+      {"depth_scale: 1000.0", "depth_scale: 2e6",
+       "depth_scale: must be in [1, 1e6] raw units per metre, got 2e6"},
+      {"height: 120", "height: 16385",
+       "cameras.thermal.height: must be in [1, 16384] px, got 16385"},
+      {"fy: 911.5", "fy: 1.5e6", "cameras.rgb.fy: must be in [1, 1e6] px, got 1500000"},
+      {"fx: 180.5", "fx: 0.5", "cameras.thermal.fx: must be in [1, 1e6] px, got 0.5"},
+      {"cx: 639.75", "cx: 2561",
+       "cameras.rgb.cx: must be in [-width, 2 width] = [-1280, 2560] px, got 2561"},
+      {"cy: 59.5", "cy: -121",
+       "cameras.thermal.cy: must be in [-height, 2 height] = [-120, 240] px, got -121"},
+      {"[-0.3, 0.12, 0.0005, 0.0007]", "[-0.3, 1.5e4, 0.0005, 0.0007]",
+       "cameras.thermal.distortion[1]: must be in [-10000, 10000], got 15000"},
+      {"t_m: [0.03, 0.01, -0.002]", "t_m: [6, 8, 0.1]",
+       "extrinsics.depth_from_thermal.t_m: must be at most 10 m long, got [6, 8, 0.1]"},
+      {"rgb: 0.0", "rgb: -2e10", "time_offset_s.rgb: must be in [-1e10, 1e10] s, got -2e10"},
+      {"raw_scale: 0.01", "raw_scale: 1e-7",
+       "thermal.raw_scale: |raw_scale| must be in [1e-6, 10] °C per count (either sign), got "
+       "1e-7"},
+      {"raw_scale: 0.01", "raw_scale: -11",
+       "thermal.raw_scale: |raw_scale| must be in [1e-6, 10] °C per count (either sign), got -11"},
+      {"raw_offset: -273.15", "raw_offset: -1e4",
+       "thermal.raw_offset: must be in [-1000, 1000] °C, got -10000"},
+      {"[7.5, 14.0]", "[0.05, 14.0]",
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [0.05, "
+       "14]"},
+      {"[7.5, 14.0]", "[7.5, 1e300]",
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [7.5, "
+       "1e300]"},
+      {"netd_k: 0.04", "netd_k: 11", "thermal.netd_k: must be in [0, 10] K, got 11"},
+      {"emissivity: 0.95", "emissivity: 1e-300",
+       "thermal.emissivity: must be in [0.01, 1], got 1e-300"},
+      {"reflected_c: 20.0", "reflected_c: 3001",
+       "thermal.reflected_c: must be in (-273.15, 3000] °C (above absolute zero), got 3001"},
+      {"reflected_c: 20.0", "reflected_c: -273.15",
+       "thermal.reflected_c: must be in (-273.15, 3000] °C (above absolute zero), got -273.15"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.to);
+    EXPECT_EQ(RigError(Replace(full, c.from, c.to)),
+              "rig.yaml: " + c.expected + " (line " + std::to_string(LineOf(full, c.from)) + ")");
+  }
+}
+
+TEST(RigTest, ValuesAtTheEdgesOfTheirRangesAreAccepted) {
+  const std::string full = kFullRig;
+  const std::vector<std::pair<std::string, std::string>> edges = {
+      {"depth_scale: 1000.0", "depth_scale: 1"},
+      {"depth_scale: 1000.0", "depth_scale: 1e6"},
+      {"width: 640", "width: 16384"},
+      {"fx: 525.0", "fx: 1"},
+      {"fy: 911.5", "fy: 1e6"},
+      {"cx: 639.75", "cx: -1280"},
+      {"cy: 359.25", "cy: 1440"},
+      {"[-0.3, 0.12, 0.0005, 0.0007]", "[-1e4, 1e4, 5e-324, 0]"},
+      {"t_m: [0.03, 0.01, -0.002]", "t_m: [6, 8, 0]"},
+      // A thermal camera counting from boot, depth on Unix time: 1.7e9 s apart.
+      {"thermal: -0.04", "thermal: 1.7e9"},
+      {"rgb: 0.0", "rgb: -1e10"},
+      {"raw_scale: 0.01", "raw_scale: -1e-6"},
+      {"raw_scale: 0.01", "raw_scale: 10"},
+      {"raw_offset: -273.15", "raw_offset: 1000"},
+      {"[7.5, 14.0]", "[0.1, 1000]"},
+      {"netd_k: 0.04", "netd_k: 10"},
+      {"emissivity: 0.95", "emissivity: 0.01"},
+      {"reflected_c: 20.0", "reflected_c: 3000"},
+      {"reflected_c: 20.0", "reflected_c: -273.14"},
+  };
+  for (const auto& [from, to] : edges) {
+    SCOPED_TRACE(to);
+    const std::string text = Replace(full, from, to);
+    EXPECT_EQ(RigError(text), "<no error>");
+    // And what is accepted is written back and read again unchanged.
+    const Rig rig = ParseRig(text, "rig.yaml");
+    ExpectSameRig(rig, ParseRig(FormatRig(rig), "rig.yaml"));
+  }
+}
+
+TEST(RigTest, CheckHoldsTheRangesForRigsBuiltInCode) {
+  // The same ranges without a file: WriteRig asserts them, so nothing out of range is written.
+  const std::vector<std::pair<std::function<void(Rig&)>, std::string>> cases = {
+      {[](Rig& r) { r.depth_scale = 1e-300; },
+       "depth_scale: must be in [1, 1e6] raw units per metre, got 1e-300"},
+      {[](Rig& r) { r.depth_scale = INFINITY; }, "depth_scale: must be finite, got inf"},
+      {[](Rig& r) { r.depth.fx = 1e-320; }, "cameras.depth.fx: must be in [1, 1e6] px, got 1e-320"},
+      {[](Rig& r) { r.thermal->width = 1000000000; },
+       "cameras.thermal.width: must be in [1, 16384] px, got 1000000000"},
+      {[](Rig& r) { r.depth_from_rgb.translation.x() = 1e300; },
+       "extrinsics.depth_from_rgb.t_m: must be at most 10 m long, got [1e300, -0.3333333333333333, "
+       "1e-9]"},
+      {[](Rig& r) { r.depth_from_thermal.translation = Eigen::Vector3d(0.03, 0, NAN); },
+       "extrinsics.depth_from_thermal.t_m: must be at most 10 m long, got [0.03, 0, nan]"},
+      {[](Rig& r) { r.thermal_time_offset_s = 1e300; },
+       "time_offset_s.thermal: must be in [-1e10, 1e10] s, got 1e300"},
+      {[](Rig& r) { r.rgb_time_offset_s = -INFINITY; },
+       "time_offset_s.rgb: must be finite, got -inf"},
+      {[](Rig& r) { r.thermal_settings->raw_scale = 1e300; },
+       "thermal.raw_scale: |raw_scale| must be in [1e-6, 10] °C per count (either sign), got "
+       "1e300"},
+      {[](Rig& r) { r.thermal_settings->raw_offset = NAN; },
+       "thermal.raw_offset: must be finite, got nan"},
+      {[](Rig& r) { r.thermal_settings->emissivity = 1e-300; },
+       "thermal.emissivity: must be in [0.01, 1], got 1e-300"},
+  };
+  for (const auto& [mutate, expected] : cases) {
+    Rig rig = MakeRig(true, true);
+    ASSERT_EQ(rig.Check(), "");
+    mutate(rig);
+    EXPECT_EQ(rig.Check(), expected);
+  }
+  EXPECT_EQ(ThermalSettings().Check(), "");
+  ThermalSettings settings;
+  settings.netd_k = -1;
+  EXPECT_EQ(settings.Check(), "netd_k: must be in [0, 10] K, got -1");
+  // Writing what could not be read back is a bug, asserted.
+  Rig absurd = MakeRig(true, true);
+  absurd.depth.fx = 1e-320;
+  EXPECT_DEATH(FormatRig(absurd), "Check");
+  EXPECT_EQ(CheckExtrinsicTranslation(Eigen::Vector3d(0, 0, 10)), "");
+  EXPECT_EQ(CheckExtrinsicTranslation(Eigen::Vector3d(0, 0, 10.000001)),
+            "must be at most 10 m long, got [0, 0, 10.000001]");
+}
+
+// ---------------------------------------------------------------------------------------
 // Malformed rig.yaml.
 
 struct BadRig {
@@ -416,11 +566,13 @@ std::vector<BadRig> BadRigs() {
   return {
       // Values out of range.
       {"negative focal", Replace(full, "fx: 180.5", "fx: -3"),
-       "cameras.thermal.fx: must be > 0, got -3"},
-      {"zero focal", Replace(full, "fy: 526.0", "fy: 0"), "cameras.depth.fy: must be > 0, got 0"},
-      {"zero width", Replace(full, "width: 640", "width: 0"), "cameras.depth.width: must be > 0"},
+       "cameras.thermal.fx: must be in [1, 1e6] px, got -3"},
+      {"zero focal", Replace(full, "fy: 526.0", "fy: 0"),
+       "cameras.depth.fy: must be in [1, 1e6] px, got 0"},
+      {"zero width", Replace(full, "width: 640", "width: 0"),
+       "cameras.depth.width: must be in [1, 16384] px, got 0"},
       {"negative height", Replace(full, "height: 720", "height: -720"),
-       "cameras.rgb.height: must be > 0"},
+       "cameras.rgb.height: must be in [1, 16384] px, got -720"},
       {"non-unit quaternion", Replace(full, "[0, 0, 0, 1]", "[0, 0, 0, 1.2]"),
        "extrinsics.depth_from_rgb.q_xyzw: not a unit quaternion (norm 1.2)"},
       {"quaternion off by 2e-6",
@@ -438,27 +590,27 @@ std::vector<BadRig> BadRigs() {
       {"pinhole with coefficients", Replace(full, "distortion: []", "distortion: [0.1, 0, 0, 0]"),
        "cameras.depth.distortion: pinhole needs 0 coefficients, got 4"},
       {"band decreasing", Replace(full, "[7.5, 14.0]", "[14.0, 7.5]"),
-       "thermal.spectral_band_um: must be increasing and > 0, got [14, 7.5]"},
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [14, 7.5]"},
       {"band from zero", Replace(full, "[7.5, 14.0]", "[0, 14.0]"),
-       "thermal.spectral_band_um: must be increasing and > 0"},
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [0, 14]"},
       {"band negative", Replace(full, "[7.5, 14.0]", "[-8, -7.5]"),
-       "thermal.spectral_band_um: must be increasing and > 0"},
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [-8, -7.5]"},
       {"band equal", Replace(full, "[7.5, 14.0]", "[7.5, 7.5]"),
-       "thermal.spectral_band_um: must be increasing and > 0"},
+       "thermal.spectral_band_um: must be [lo, hi] with 0.1 <= lo < hi <= 1000 µm, got [7.5, 7.5]"},
       {"emissivity 0", Replace(full, "emissivity: 0.95", "emissivity: 0"),
-       "thermal.emissivity: must be in (0, 1], got 0"},
+       "thermal.emissivity: must be in [0.01, 1], got 0"},
       {"emissivity above 1", Replace(full, "emissivity: 0.95", "emissivity: 1.01"),
-       "thermal.emissivity: must be in (0, 1], got 1.01"},
+       "thermal.emissivity: must be in [0.01, 1], got 1.01"},
       {"negative netd", Replace(full, "netd_k: 0.04", "netd_k: -0.01"),
-       "thermal.netd_k: must be >= 0, got -0.01"},
+       "thermal.netd_k: must be in [0, 10] K, got -0.01"},
       {"zero raw scale", Replace(full, "raw_scale: 0.01", "raw_scale: 0"),
-       "thermal.raw_scale: must be finite and != 0, got 0"},
+       "thermal.raw_scale: |raw_scale| must be in [1e-6, 10] °C per count (either sign), got 0"},
       {"reflected below absolute zero", Replace(full, "reflected_c: 20.0", "reflected_c: -300"),
-       "thermal.reflected_c: must be above absolute zero"},
+       "thermal.reflected_c: must be in (-273.15, 3000] °C (above absolute zero), got -300"},
       {"zero depth scale", Replace(full, "depth_scale: 1000.0", "depth_scale: 0"),
-       "depth_scale: must be > 0, got 0"},
+       "depth_scale: must be in [1, 1e6] raw units per metre, got 0"},
       {"negative depth scale", Replace(full, "depth_scale: 1000.0", "depth_scale: -1000"),
-       "depth_scale: must be > 0, got -1000"},
+       "depth_scale: must be in [1, 1e6] raw units per metre, got -1000"},
       {"depth clock offset", Replace(full, "  rgb: 0.0\n", "  rgb: 0.0\n  depth: 0.1\n"),
        "time_offset_s.depth: must be 0 (depth is the reference clock), got 0.1"},
       {"version 2", Replace(full, "version: 1", "version: 2"), "version: unsupported version 2"},
@@ -603,7 +755,7 @@ std::vector<BadRig> BadRigs() {
       {"syntax error in a second document", full + "---\n[\n",
        "rig.yaml: line 46: YAML syntax error"},
       {"deep nesting", "version: " + std::string(3000, '[') + std::string(3000, ']') + "\n",
-       "rig.yaml: "},
+       "rig.yaml: line 1: YAML nesting deeper than 32 levels"},
       {"unclosed flow list", Replace(full, "[7.5, 14.0]", "[7.5, 14.0"), "YAML syntax error"},
       {"bad indentation", Replace(full, "    fy: 526.0\n", "   fy: 526.0\n"), "YAML syntax error"},
       {"tab indentation", Replace(full, "    fy: 526.0\n", "\tfy: 526.0\n"), "YAML syntax error"},
@@ -631,7 +783,7 @@ TEST(RigTest, EveryMalformedRigThrowsOneClearInputError) {
 TEST(RigTest, ErrorsGiveTheLineNumber) {
   const std::string full = kFullRig;
   EXPECT_EQ(RigError(Replace(full, "fx: 180.5", "fx: -3")),
-            "rig.yaml: cameras.thermal.fx: must be > 0, got -3 (line " +
+            "rig.yaml: cameras.thermal.fx: must be in [1, 1e6] px, got -3 (line " +
                 std::to_string(LineOf(full, "fx: 180.5")) + ")");
   EXPECT_EQ(RigError(Replace(full, "    fx: 525.0\n", "    fxx: 525.0\n")),
             "rig.yaml: cameras.depth: unknown key 'fxx' (line " +
@@ -740,15 +892,15 @@ TEST(RigTest, FuzzTruncationsMutationsAndDeletions) {
 
 TEST(RigTest, CheckNamesTheBadField) {
   EXPECT_EQ(MakeRig(true, true).Check(), "");
-  EXPECT_THAT(Rig().Check(), StartsWith("cameras.depth.width: must be > 0"));
+  EXPECT_EQ(Rig().Check(), "cameras.depth.width: must be in [1, 16384] px, got 0");
 
   Rig rig = MakeRig(true, true);
   rig.depth_scale = 0;
-  EXPECT_THAT(rig.Check(), StartsWith("depth_scale: must be > 0"));
+  EXPECT_EQ(rig.Check(), "depth_scale: must be in [1, 1e6] raw units per metre, got 0");
 
   rig = MakeRig(true, true);
   rig.rgb->fx = -1;
-  EXPECT_THAT(rig.Check(), StartsWith("cameras.rgb.fx: must be > 0"));
+  EXPECT_EQ(rig.Check(), "cameras.rgb.fx: must be in [1, 1e6] px, got -1");
 
   rig = MakeRig(true, true);
   rig.depth_from_thermal.rotation.coeffs() << 0, 0, 0, 2;
@@ -760,7 +912,7 @@ TEST(RigTest, CheckNamesTheBadField) {
 
   rig = MakeRig(true, true);
   rig.thermal_settings->emissivity = 0;
-  EXPECT_THAT(rig.Check(), StartsWith("thermal.emissivity: must be in (0, 1]"));
+  EXPECT_EQ(rig.Check(), "thermal.emissivity: must be in [0.01, 1], got 0");
 
   rig = MakeRig(true, true);
   rig.thermal_settings.reset();
@@ -777,132 +929,6 @@ TEST(RigTest, CheckNamesTheBadField) {
   rig.thermal_time_offset_s = 0.5;
   EXPECT_EQ(rig.Check(),
             "time_offset_s.thermal: must be 0 when cameras.thermal is absent, got 0.5");
-}
-
-// ---------------------------------------------------------------------------------------
-// target.yaml
-
-void ExpectSameTarget(const Target& a, const Target& b) {
-  EXPECT_EQ(a.type, b.type);
-  EXPECT_EQ(a.rows, b.rows);
-  EXPECT_EQ(a.cols, b.cols);
-  EXPECT_EQ(a.square_m, b.square_m);
-  EXPECT_EQ(a.pitch_m, b.pitch_m);
-  EXPECT_EQ(a.family, b.family);
-}
-
-std::string TargetError(const std::string& text) {
-  try {
-    ParseTarget(text, "target.yaml");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "<no error>";
-}
-
-TEST(TargetTest, TypeNames) {
-  EXPECT_EQ(TargetTypeName(TargetType::kSquareGrid), "square_grid");
-  EXPECT_EQ(TargetTypeName(TargetType::kChessboard), "chessboard");
-  EXPECT_EQ(TargetTypeName(TargetType::kAprilGrid), "aprilgrid");
-}
-
-TEST(TargetTest, ReadsTheSpecExample) {
-  const Target target = ParseTarget(R"(type: square_grid    # square_grid | chessboard | aprilgrid
-rows: 4              # square_grid: squares per column; chessboard: inner corners per column
-cols: 6              # square_grid: squares per row;    chessboard: inner corners per row
-square_m: 0.030      # side of one square (aprilgrid: side of one tag)
-pitch_m: 0.050       # square_grid and aprilgrid: centre-to-centre distance
-)",
-                                    "target.yaml");
-  EXPECT_EQ(target.type, TargetType::kSquareGrid);
-  EXPECT_EQ(target.rows, 4);
-  EXPECT_EQ(target.cols, 6);
-  EXPECT_EQ(target.square_m, 0.030);
-  EXPECT_EQ(target.pitch_m, 0.050);
-  EXPECT_EQ(target.family, "");
-}
-
-TEST(TargetTest, RoundTripsEveryType) {
-  const fs::path dir = hw::test::TestFolder();
-  Target square_grid{TargetType::kSquareGrid, 4, 6, 0.03, 0.05, ""};
-  Target chessboard{TargetType::kChessboard, 6, 9, 0.1 / 3.0, 0, ""};
-  Target aprilgrid{TargetType::kAprilGrid, 1, 1, 0.088, 0.088 * 1.3, "tagStandard41h12"};
-  for (const Target& target : {square_grid, chessboard, aprilgrid}) {
-    SCOPED_TRACE(TargetTypeName(target.type));
-    ASSERT_EQ(target.Check(), "");
-    const fs::path path = dir / (TargetTypeName(target.type) + ".yaml");
-    WriteTarget(path, target);
-    ExpectSameTarget(target, ReadTarget(path));
-  }
-}
-
-TEST(TargetTest, MalformedTargetsThrowInputError) {
-  const std::string grid = "type: square_grid\nrows: 4\ncols: 6\nsquare_m: 0.03\npitch_m: 0.05\n";
-  const std::string chess = "type: chessboard\nrows: 6\ncols: 9\nsquare_m: 0.025\n";
-  const std::string april =
-      "type: aprilgrid\nrows: 6\ncols: 6\nsquare_m: 0.088\npitch_m: 0.11\nfamily: tag36h11\n";
-  EXPECT_EQ(TargetError(grid), "<no error>");
-  EXPECT_EQ(TargetError(chess), "<no error>");
-  EXPECT_EQ(TargetError(april), "<no error>");
-  EXPECT_EQ(TargetError(Replace(grid, "rows: 4", "rows: 1")), "<no error>");
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {Replace(grid, "pitch_m: 0.05", "pitch_m: 0.03"),
-       "target.yaml: pitch_m: must be > square_m (0.03) for square_grid, got 0.03 (line 5)"},
-      {Replace(grid, "pitch_m: 0.05\n", ""), "pitch_m: missing required key"},
-      {Replace(april, "pitch_m: 0.11\n", ""), "pitch_m: missing required key"},
-      {chess + "pitch_m: 0.03\n", "pitch_m: not used for chessboard"},
-      {Replace(april, "family: tag36h11\n", ""), "family: missing required key"},
-      {Replace(april, "tag36h11", "tag99h1"), "family: unknown AprilTag family 'tag99h1'"},
-      {Replace(april, "tag36h11", "[tag36h11]"), "family: must be a name, got a list"},
-      {grid + "family: tag36h11\n", "family: only for aprilgrid, not square_grid"},
-      {Replace(chess, "rows: 6", "rows: 1"), "rows: must be >= 2 for chessboard, got 1"},
-      {Replace(chess, "cols: 9", "cols: 1"), "cols: must be >= 2 for chessboard, got 1"},
-      {Replace(grid, "rows: 4", "rows: 0"), "rows: must be >= 1 for square_grid, got 0"},
-      {Replace(april, "cols: 6", "cols: -1"), "cols: must be >= 1 for aprilgrid, got -1"},
-      {Replace(grid, "rows: 4", "rows: 4.5"), "rows: must be an integer, got '4.5'"},
-      {Replace(grid, "square_m: 0.03", "square_m: 0"), "square_m: must be > 0, got 0"},
-      {Replace(grid, "square_m: 0.03", "square_m: '0.03'"),
-       "square_m: must be a number, got string \"0.03\""},
-      {Replace(grid, "square_grid", "checkerboard"),
-       "type: must be square_grid, chessboard or aprilgrid, got 'checkerboard'"},
-      {Replace(grid, "type: square_grid\n", ""), "type: missing required key"},
-      {grid + "margin_m: 0.01\n", "top level: unknown key 'margin_m' (line 6)"},
-      {grid + "rows: 5\n", "top level: duplicate key 'rows'"},
-      {"", "target.yaml: empty file"},
-      {"type: [chessboard\n", "YAML syntax error"},
-  };
-  for (const auto& [text, expected] : cases) {
-    SCOPED_TRACE(text);
-    EXPECT_THAT(TargetError(text), HasSubstr(expected));
-  }
-}
-
-TEST(TargetTest, CheckNamesTheBadField) {
-  EXPECT_THAT((Target{TargetType::kChessboard, 6, 9, 0.02, 0.03, ""}).Check(),
-              StartsWith("pitch_m: not used for chessboard"));
-  EXPECT_THAT((Target{TargetType::kAprilGrid, 6, 9, 0.02, 0.03, ""}).Check(),
-              StartsWith("family: unknown AprilTag family ''"));
-  EXPECT_THAT((Target{TargetType::kSquareGrid, 6, 9, NAN, 0.03, ""}).Check(),
-              StartsWith("square_m: must be > 0"));
-}
-
-TEST(TargetTest, FuzzNeverCrashes) {
-  const std::string april =
-      "type: aprilgrid\nrows: 6\ncols: 6\nsquare_m: 0.088\npitch_m: 0.11\nfamily: tag36h11\n";
-  std::mt19937 rng(99);
-  int accepted = 0;
-  for (int i = 0; i < 1000; ++i) {
-    const size_t n = static_cast<size_t>(i);
-    std::string text = april.substr(0, std::min(n, april.size()));
-    if (n >= april.size()) text[rng() % text.size()] = static_cast<char>(rng() % 128);
-    try {
-      const Target target = ParseTarget(text, "target.yaml");
-      EXPECT_EQ(target.Check(), "");
-      ++accepted;
-    } catch (const InputError&) {
-    }
-  }
-  EXPECT_GT(accepted, 0);
 }
 
 }  // namespace

@@ -1,6 +1,9 @@
 #include "core/scan.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <atomic>
 #include <cassert>
 #include <charconv>
@@ -13,10 +16,12 @@
 #include <thread>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/image_io.h"
+#include "core/output_folder.h"
+#include "core/text_lines.h"
 
 namespace hw::core {
 
@@ -53,14 +58,8 @@ bool IsBlank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 // line with at least one field. Throws on control characters.
 template <typename OnFields>
 void ForEachDataLine(const std::string& text, const fs::path& path, OnFields on_fields) {
-  int line_number = 0;
-  size_t begin = 0;
   std::vector<std::string_view> fields;
-  while (begin <= text.size()) {
-    size_t end = text.find('\n', begin);
-    if (end == std::string::npos) end = text.size();
-    ++line_number;
-    std::string_view line(text.data() + begin, end - begin);
+  ForEachLine(text, [&](size_t line_number, std::string_view line) {
     fields.clear();
     size_t i = 0;
     while (i < line.size()) {
@@ -83,10 +82,25 @@ void ForEachDataLine(const std::string& text, const fs::path& path, OnFields on_
       }
       fields.push_back(line.substr(start, i - start));
     }
-    if (!fields.empty()) on_fields(line_number, fields);
-    if (end == text.size()) break;
-    begin = end + 1;
+    if (!fields.empty()) on_fields(static_cast<int>(line_number), fields);
+  });
+}
+
+// True when `relative` stays inside the folder it is relative to, lexically: ".."
+// components never climb above the start. (Symlinks inside the scan are followed: a folder
+// linked in on purpose, e.g. frames on another disk, is the user's choice.)
+bool StaysInside(const fs::path& relative) {
+  int depth = 0;
+  for (const fs::path& component : relative) {
+    const std::string& name = component.native();
+    if (name.empty() || name == ".") continue;
+    if (name == "..") {
+      if (--depth < 0) return false;
+    } else {
+      ++depth;
+    }
   }
+  return depth > 0;
 }
 
 double ParseTimestamp(std::string_view token, const fs::path& path, int line_number) {
@@ -109,15 +123,6 @@ void CheckIncreasing(double t, double previous_t, int previous_line, const fs::p
                                " on line " + std::to_string(previous_line) +
                                " (timestamps must strictly increase)");
   }
-}
-
-std::string TypeName(int type) {
-  const int depth = CV_MAT_DEPTH(type);
-  const int channels = CV_MAT_CN(type);
-  static const char* const kDepthNames[] = {"8-bit unsigned", "8-bit signed",   "16-bit unsigned",
-                                            "16-bit signed",  "32-bit integer", "32-bit float",
-                                            "64-bit float",   "16-bit float"};
-  return std::string(kDepthNames[depth & 7]) + " " + std::to_string(channels) + "-channel";
 }
 
 std::string SizeName(int width, int height) {
@@ -166,6 +171,10 @@ std::vector<IndexEntry> ParseStreamIndex(const std::string& text, const fs::path
       throw InputError(path, "line " + std::to_string(line_number) + ": path " + Quote(entry.path) +
                                  " must be relative to the scan folder");
     }
+    if (!StaysInside(entry.path)) {
+      throw InputError(path, "line " + std::to_string(line_number) + ": path " + Quote(entry.path) +
+                                 " does not name a file inside the scan folder");
+    }
     if (!entries.empty()) {
       CheckIncreasing(entry.timestamp_s, entries.back().timestamp_s, entries.back().line, path,
                       line_number);
@@ -176,7 +185,7 @@ std::vector<IndexEntry> ParseStreamIndex(const std::string& text, const fs::path
 }
 
 std::vector<IndexEntry> ReadStreamIndex(const fs::path& path) {
-  return ParseStreamIndex(ReadFile(path), path);
+  return ParseStreamIndex(ReadFile(path, kMaxIndexFileBytes), path);
 }
 
 std::vector<double> ParseFfcEvents(const std::string& text, const fs::path& path) {
@@ -197,7 +206,7 @@ std::vector<double> ParseFfcEvents(const std::string& text, const fs::path& path
 }
 
 std::vector<double> ReadFfcEvents(const fs::path& path) {
-  return ParseFfcEvents(ReadFile(path), path);
+  return ParseFfcEvents(ReadFile(path, kMaxIndexFileBytes), path);
 }
 
 std::string ScanOptions::Check() const {
@@ -253,15 +262,29 @@ Scan::StreamData& Scan::Data(Stream stream) { return streams_[static_cast<size_t
 
 Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
   assert(options.Check().empty());
-  std::error_code ec;
-  if (!fs::exists(folder, ec)) throw InputError(folder, "no such scan folder");
-  if (!fs::is_directory(folder, ec)) throw InputError(folder, "is not a folder, expected a scan");
+  const PathInfo folder_info = ProbePath(folder);
+  if (folder_info.kind == PathKind::kMissing) throw InputError(folder, "no such scan folder");
+  if (folder_info.kind != PathKind::kDirectory) {
+    throw InputError(folder, folder_info.kind == PathKind::kRegularFile
+                                 ? "is not a folder, expected a scan"
+                                 : DescribeNotRegular(folder_info) + ", expected a scan folder");
+  }
+  if (::access(folder.c_str(), R_OK | X_OK) != 0 && (errno == EACCES || errno == EPERM)) {
+    throw InputError(folder, "cannot read the scan folder: permission denied");
+  }
+  if (const FolderRun run = ProbeFolderRun(folder); run.state != FolderRunState::kComplete) {
+    const std::string who = run.detail.empty() ? "" : " (" + run.detail + ")";
+    throw InputError(folder, run.state == FolderRunState::kBeingWritten
+                                 ? "scan is being written by another heatwave run" + who
+                                 : "incomplete scan: the run that wrote it did not finish" + who +
+                                       "; write it again");
+  }
 
   Scan scan;
   scan.folder_ = folder;
   scan.options_ = options;
   scan.rig_path_ = options.rig_path.empty() ? folder / "rig.yaml" : options.rig_path;
-  if (!fs::exists(scan.rig_path_, ec)) {
+  if (ProbePath(scan.rig_path_).kind == PathKind::kMissing) {
     throw InputError(scan.rig_path_,
                      options.rig_path.empty()
                          ? "no such file; a folder without rig.yaml (e.g. a TUM RGB-D "
@@ -270,15 +293,17 @@ Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
   }
   scan.rig_ = ReadRig(scan.rig_path_);
 
-  // Stream indexes. Depth is required and must have frames.
+  // Stream indexes. Depth is required and must have frames. An optional file is absent only
+  // when nothing is at its path: a dangling link, a FIFO or a folder there is an error
+  // (ReadFile says which), not a silently missing stream.
   const fs::path depth_index = scan.IndexPath(Stream::kDepth);
-  if (!fs::exists(depth_index, ec)) {
+  if (ProbePath(depth_index).kind == PathKind::kMissing) {
     throw InputError(depth_index, "no such file; every scan needs a depth stream index");
   }
   for (const Stream stream : kAllStreams) {
     StreamData& data = scan.Data(stream);
     const fs::path index = scan.IndexPath(stream);
-    if (!fs::exists(index, ec)) continue;
+    if (ProbePath(index).kind == PathKind::kMissing) continue;
     const bool has_camera =
         stream == Stream::kDepth ||
         (stream == Stream::kRgb ? scan.rig_.rgb.has_value() : scan.rig_.thermal.has_value());
@@ -289,13 +314,17 @@ Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
     }
     data.has_index = true;
     data.entries = ReadStreamIndex(index);
+    if (data.entries.empty() && stream != Stream::kDepth) {
+      scan.warnings_.push_back(StreamName(stream) + ": " + index.string() +
+                               " lists no frames (the stream is empty)");
+    }
   }
   if (scan.Data(Stream::kDepth).entries.empty()) {
     throw InputError(depth_index, "no frames; a scan needs at least one depth frame");
   }
 
   const fs::path ffc_path = folder / "ffc.txt";
-  if (fs::exists(ffc_path, ec)) {
+  if (ProbePath(ffc_path).kind != PathKind::kMissing) {
     if (!scan.rig_.thermal) {
       throw InputError(ffc_path, "flat-field events, but the rig " + scan.rig_path_.string() +
                                      " has no cameras.thermal");
@@ -303,8 +332,11 @@ Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
     scan.ffc_timestamps_s_ = ReadFfcEvents(ffc_path);
   }
   const fs::path groundtruth_path = folder / "groundtruth.txt";
-  if (fs::exists(groundtruth_path, ec)) {
+  if (ProbePath(groundtruth_path).kind != PathKind::kMissing) {
     scan.groundtruth_ = ReadTumTrajectory(groundtruth_path);
+    if (scan.groundtruth_->empty()) {
+      scan.warnings_.push_back("groundtruth: " + groundtruth_path.string() + " holds no poses");
+    }
   }
 
   // Frame files (a stat each), gaps, periods.
@@ -319,11 +351,16 @@ Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
     data.exists.assign(data.entries.size(), true);
     for (size_t i = 0; i < data.entries.size(); ++i) {
       const fs::path file = folder / data.entries[i].path;
-      if (fs::is_regular_file(file, ec)) continue;
+      const PathInfo info = ProbePath(file);
+      if (info.kind == PathKind::kRegularFile) continue;
       data.exists[i] = false;
       if (++data.num_missing <= kMaxListedWarnings) {
-        scan.warnings_.push_back(name + ": missing file " + file.string() + " (" + name +
-                                 ".txt line " + std::to_string(data.entries[i].line) +
+        const std::string what = info.kind == PathKind::kMissing
+                                     ? "missing file " + file.string()
+                                     : "unusable file " + file.string() + ": " +
+                                           DescribeNotRegular(info);
+        scan.warnings_.push_back(name + ": " + what + " (" + name + ".txt line " +
+                                 std::to_string(data.entries[i].line) +
                                  ", t=" + FormatSeconds(data.entries[i].timestamp_s) + ")");
       }
     }
@@ -472,29 +509,44 @@ std::string Scan::FrameLabel(Stream stream, int i) const {
          " (t=" + FormatSeconds(Timestamp(stream, i)) + ")";
 }
 
-cv::Mat Scan::ReadImage(Stream stream, int i) const {
+cv::Mat Scan::ReadImage(Stream stream, int i, const ImageHeaderCheck& check) const {
   const fs::path path = FramePath(stream, i);
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path, "missing " + FrameLabel(stream, i));
-  cv::Mat image;
+  const PathInfo info = ProbePath(path);
+  if (info.kind == PathKind::kMissing) throw InputError(path, "missing " + FrameLabel(stream, i));
+  if (info.kind != PathKind::kRegularFile) {
+    throw InputError(path, "unusable " + FrameLabel(stream, i) + ": " + DescribeNotRegular(info));
+  }
+  std::string bytes;
   try {
-    image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw InputError(path, "cannot decode " + FrameLabel(stream, i) + ": " + e.msg);
+    bytes = ReadFile(path, kMaxFrameFileBytes);
+  } catch (const InputError& e) {
+    throw InputError(path, "cannot read " + FrameLabel(stream, i) + ": " + e.reason());
   }
-  if (image.empty()) {
-    throw InputError(path, "cannot decode " + FrameLabel(stream, i) +
-                               " (unreadable, truncated or not an image)");
+  // The caller's check of the header (size, type against the rig) runs before any pixel is
+  // decompressed; its messages pass unchanged, the decoder's get the frame's name.
+  bool check_failed = false;
+  const ImageHeaderCheck checked = [&](const ImageHeader& header) {
+    try {
+      check(header);
+    } catch (...) {
+      check_failed = true;
+      throw;
+    }
+  };
+  try {
+    return DecodeImage(bytes, path, checked);
+  } catch (const InputError& e) {
+    if (check_failed) throw;
+    throw InputError(path, "cannot decode " + FrameLabel(stream, i) + ": " + e.reason());
   }
-  return image;
 }
 
 namespace {
 
-void CheckSize(const cv::Mat& image, const CameraModel& camera, const std::string& camera_name,
-               const fs::path& path) {
-  if (image.cols != camera.width || image.rows != camera.height) {
-    throw InputError(path, "image is " + SizeName(image.cols, image.rows) + ", cameras." +
+void CheckSize(const ImageHeader& header, const CameraModel& camera,
+               const std::string& camera_name, const fs::path& path) {
+  if (header.width != camera.width || header.height != camera.height) {
+    throw InputError(path, "image is " + SizeName(header.width, header.height) + ", cameras." +
                                camera_name + " in the rig is " +
                                SizeName(camera.width, camera.height));
   }
@@ -503,13 +555,14 @@ void CheckSize(const cv::Mat& image, const CameraModel& camera, const std::strin
 }  // namespace
 
 cv::Mat Scan::LoadDepth(int i) const {
-  const cv::Mat raw = ReadImage(Stream::kDepth, i);
   const fs::path path = FramePath(Stream::kDepth, i);
-  if (raw.type() != CV_16UC1) {
-    throw InputError(path,
-                     "depth image must be 16-bit unsigned 1-channel, got " + TypeName(raw.type()));
-  }
-  CheckSize(raw, rig_.depth, "depth", path);
+  const cv::Mat raw = ReadImage(Stream::kDepth, i, [&](const ImageHeader& header) {
+    if (header.type() != CV_16UC1) {
+      throw InputError(path, "depth image must be 16-bit unsigned 1-channel, got " +
+                                 ImageTypeName(header.type()));
+    }
+    CheckSize(header, rig_.depth, "depth", path);
+  });
   cv::Mat depth_m;
   raw.convertTo(depth_m, CV_32F, 1.0 / rig_.depth_scale);  // raw 0 stays 0.0f
   return depth_m;
@@ -517,21 +570,22 @@ cv::Mat Scan::LoadDepth(int i) const {
 
 cv::Mat Scan::LoadRgb(int i) const {
   assert(rig_.rgb);
-  const cv::Mat image = ReadImage(Stream::kRgb, i);
   const fs::path path = FramePath(Stream::kRgb, i);
-  if (image.depth() != CV_8U ||
-      (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
-    throw InputError(
-        path, "colour image must be 8-bit with 1, 3 or 4 channels, got " + TypeName(image.type()));
-  }
-  CheckSize(image, *rig_.rgb, "rgb", path);
+  const cv::Mat image = ReadImage(Stream::kRgb, i, [&](const ImageHeader& header) {
+    if (header.depth != CV_8U || header.channels > 4) {
+      throw InputError(path, "colour image must be 8-bit with 1 to 4 channels, got " +
+                                 ImageTypeName(header.type()));
+    }
+    CheckSize(header, *rig_.rgb, "rgb", path);
+  });
+  // Decoded in file order (grey, grey+alpha, RGB, RGBA): grey is replicated, alpha dropped.
+  if (image.channels() == 3) return image;
   cv::Mat rgb(image.rows, image.cols, CV_8UC3);
-  // OpenCV decodes to BGR(A); heatwave images are RGB.
-  if (image.channels() == 1) {
+  if (image.channels() <= 2) {
     const int from_to[] = {0, 0, 0, 1, 0, 2};
     cv::mixChannels(&image, 1, &rgb, 1, from_to, 3);
   } else {
-    const int from_to[] = {0, 2, 1, 1, 2, 0};
+    const int from_to[] = {0, 0, 1, 1, 2, 2};
     cv::mixChannels(&image, 1, &rgb, 1, from_to, 3);
   }
   return rgb;
@@ -539,15 +593,30 @@ cv::Mat Scan::LoadRgb(int i) const {
 
 cv::Mat Scan::LoadThermal(int i) const {
   assert(rig_.thermal && rig_.thermal_settings);
-  const cv::Mat image = ReadImage(Stream::kThermal, i);
   const fs::path path = FramePath(Stream::kThermal, i);
-  CheckSize(image, *rig_.thermal, "thermal", path);
-  if (image.type() == CV_32FC1) return image;
-  if (image.type() != CV_16UC1) {
-    throw InputError(path,
-                     "thermal image must be 16-bit unsigned (raw counts) or 32-bit "
-                     "float (apparent °C), 1-channel, got " +
-                         TypeName(image.type()));
+  const cv::Mat image = ReadImage(Stream::kThermal, i, [&](const ImageHeader& header) {
+    CheckSize(header, *rig_.thermal, "thermal", path);
+    if (header.type() != CV_32FC1 && header.type() != CV_16UC1) {
+      throw InputError(path,
+                       "thermal image must be 16-bit unsigned (raw counts) or 32-bit "
+                       "float (apparent °C), 1-channel, got " +
+                           ImageTypeName(header.type()));
+    }
+  });
+  if (image.type() == CV_32FC1) {
+    // NaN/inf are not temperatures: a camera marks bad pixels otherwise (raw counts).
+    int non_finite = 0;
+    for (int y = 0; y < image.rows; ++y) {
+      const float* row = image.ptr<float>(y);
+      for (int x = 0; x < image.cols; ++x) non_finite += !std::isfinite(row[x]);
+    }
+    if (non_finite > 0) {
+      throw InputError(path, FrameLabel(Stream::kThermal, i) + ": " +
+                                 std::to_string(non_finite) + " of " +
+                                 std::to_string(image.total()) +
+                                 " pixels are not finite (NaN or inf)");
+    }
+    return image;
   }
   cv::Mat apparent_c;
   image.convertTo(apparent_c, CV_32F, rig_.thermal_settings->raw_scale,

@@ -10,6 +10,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "core/image_io.h"
 #include "core/rig.h"
 #include "core/trajectory.h"
 
@@ -40,10 +41,12 @@ struct IndexEntry {
 };
 
 // Parses a stream index ("timestamp path" per line; '#' at the start of a line or of a
-// field starts a comment to the end of the line; blank lines and CR line ends allowed).
+// field starts a comment to the end of the line; blank lines, a UTF-8 BOM and LF, CRLF or
+// CR-only line ends allowed: core/text_lines.h).
 // Throws InputError(path_for_errors, "line N: ...") on: a line that is not exactly two
-// fields, a timestamp that is not a finite number, an absolute path, a control character,
-// or a timestamp not strictly after the previous one. An index without frames is valid
+// fields, a timestamp that is not a finite number, an absolute path or one whose ".."
+// components lead outside the scan folder, a control character, or a timestamp not
+// strictly after the previous one. An index without frames is valid
 // here (Scan::Open rejects an empty depth index).
 std::vector<IndexEntry> ParseStreamIndex(const std::string& text,
                                          const std::filesystem::path& path_for_errors);
@@ -85,13 +88,17 @@ inline constexpr double kTimestampResolutionS = 1e-6;
 class Scan {
  public:
   // Opens `folder`. Throws InputError (naming the file and, where relevant, line or key)
-  // when: the folder does not exist; the rig (options.rig_path or <folder>/rig.yaml) is
-  // missing or invalid; depth.txt is missing, malformed or has no frames; rgb.txt,
+  // when: the folder does not exist or is not a folder; another heatwave run is writing it,
+  // or the run that wrote it did not finish (core/output_folder.h); the rig
+  // (options.rig_path or <folder>/rig.yaml) is missing or invalid; depth.txt is missing, malformed or has no frames; rgb.txt,
   // thermal.txt, ffc.txt or groundtruth.txt are malformed; a stream index (or ffc.txt) is
   // present but the rig has no camera for it. A camera in the rig without an index is fine
-  // (the stream has no frames). Problems the scan can still be used with are warnings():
-  // frame files that do not exist, gaps in a stream, a stream that never overlaps depth in
-  // time. Asserts options.Check() is empty.
+  // (the stream has no frames). An optional file (rgb.txt, thermal.txt, ffc.txt,
+  // groundtruth.txt) is absent only when nothing is at its path: a dangling link, a link
+  // loop, a FIFO or a device there is an error saying so. Problems the scan can still be
+  // used with are warnings(): frame files that do not exist or are not regular files, gaps
+  // in a stream, a stream index or trajectory without entries, a stream that never
+  // overlaps depth in time. Asserts options.Check() is empty.
   static Scan Open(const std::filesystem::path& folder, const ScanOptions& options = {});
 
   const std::filesystem::path& folder() const { return folder_; }
@@ -152,17 +159,19 @@ class Scan {
 
   // Depth frame i in metres (CV_32FC1, rig depth size): raw / depth_scale. Pixels without a
   // measurement (raw 0) are 0.0f, not NaN: callers test `depth_m > 0`. Throws InputError
-  // naming the file when it is missing, cannot be decoded, is not 16-bit single-channel
-  // or is not the size of cameras.depth.
+  // naming the file when it is missing or not a regular file, cannot be decoded, is not
+  // 16-bit single-channel or is not the size of cameras.depth. Type and size are checked
+  // on the header, before decompression (core/image_io.h).
   cv::Mat LoadDepth(int i) const;
-  // Colour frame i as CV_8UC3 in RGB order (converted from OpenCV's BGR; a grey image is
-  // replicated, an alpha channel dropped), rig rgb size. Throws InputError naming the file
+  // Colour frame i as CV_8UC3 in RGB order (a grey image is replicated, an alpha channel
+  // dropped), rig rgb size. Throws InputError naming the file
   // when missing, undecodable, not 8-bit, or of the wrong size.
   cv::Mat LoadRgb(int i) const;
   // Thermal frame i as CV_32FC1 apparent °C, rig thermal size: a 16-bit image holds raw
   // counts (apparent = raw * raw_scale + raw_offset of the rig's thermal block), a 32-bit
   // float image (TIFF) holds apparent °C, returned as is. Throws InputError naming the file
-  // when missing, undecodable, of another type, or of the wrong size.
+  // when missing, undecodable, of another type, of the wrong size, or (float) holding
+  // NaN or inf pixels.
   cv::Mat LoadThermal(int i) const;
   // LoadDepth / LoadRgb / LoadThermal by stream, as stored (no conversion beyond the above).
   cv::Mat Load(Stream stream, int i) const;
@@ -183,7 +192,7 @@ class Scan {
   Scan() = default;
   const StreamData& Data(Stream stream) const;
   StreamData& Data(Stream stream);
-  cv::Mat ReadImage(Stream stream, int i) const;
+  cv::Mat ReadImage(Stream stream, int i, const ImageHeaderCheck& check) const;
   std::string FrameLabel(Stream stream, int i) const;
 
   std::filesystem::path folder_;

@@ -595,7 +595,7 @@ TEST(ScanFrames, CorruptWrongTypeAndWrongSizeFramesAreInputErrors) {
   ExpectInputError([&] { scan.LoadDepth(0); }, {depth0.string(), "cannot decode depth frame 0"});
   // A truncated PNG.
   const fs::path depth1 = scan.FramePath(Stream::kDepth, 1);
-  const std::string bytes = ReadFile(depth1);
+  const std::string bytes = ReadFile(depth1, kMaxMeshFileBytes);
   WriteText(depth1, bytes.substr(0, bytes.size() / 2));
   ExpectInputError([&] { scan.LoadDepth(1); }, {depth1.string()});
   // 8-bit depth.
@@ -634,7 +634,8 @@ TEST(ScanFrames, CorruptWrongTypeAndWrongSizeFramesAreInputErrors) {
   const fs::path thermal2 = scan.FramePath(Stream::kThermal, 2);
   fs::remove(thermal2);
   fs::create_directories(thermal2);
-  ExpectInputError([&] { scan.LoadThermal(2); }, {thermal2.string(), "missing thermal frame 2"});
+  ExpectInputError([&] { scan.LoadThermal(2); },
+                   {thermal2.string(), "unusable thermal frame 2", "is a folder"});
 
   // CheckFrames finds exactly these, in order, on any number of threads.
   for (const int threads : {1, 3}) {

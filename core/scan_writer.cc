@@ -7,10 +7,10 @@
 #include <system_error>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/image_io.h"
 
 namespace hw::core {
 
@@ -19,9 +19,15 @@ namespace fs = std::filesystem;
 namespace {
 
 // The folder's name for index headers ("scan" for both "a/scan" and "a/scan/").
+// Control characters (a '\n' in a folder name would end the comment line) become '?'.
 std::string FolderName(const fs::path& folder) {
   const fs::path name = folder.filename();
-  return name.empty() ? folder.parent_path().filename().string() : name.string();
+  std::string text = name.empty() ? folder.parent_path().filename().string() : name.string();
+  for (char& c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) c = '?';
+  }
+  return text;
 }
 
 }  // namespace
@@ -58,15 +64,9 @@ std::string ScanWriter::Register(StreamIndex& index, const std::string& stream, 
 }
 
 void ScanWriter::WriteImage(const std::string& relative_path, const cv::Mat& image) const {
-  const fs::path path = folder_ / relative_path;
-  WriteAtomically(path, [&](const fs::path& tmp) {
-    try {
-      // cv::imwrite picks the format from the extension, which the temporary name keeps.
-      return cv::imwrite(tmp.string(), image);
-    } catch (const cv::Exception& e) {
-      throw OutputError(path, e.msg);
-    }
-  });
+  // Encoded in memory and written through the checked writer: cv::imwrite reports success
+  // when only its final close fails (a full disk), which would rename a short file into place.
+  WriteImageAtomically(folder_ / relative_path, image);
 }
 
 int ScanWriter::AddDepth(double timestamp_s, const cv::Mat& depth_m) {
@@ -114,6 +114,7 @@ int ScanWriter::AddThermal(double timestamp_s, const cv::Mat& apparent_c,
   assert(apparent_c.cols == rig_.thermal->width && apparent_c.rows == rig_.thermal->height);
   if (encoding == ThermalEncoding::kFloatTiff) {
     // Continuous so that the TIFF writer sees one plain buffer.
+    assert(cv::checkRange(apparent_c));  // readers refuse NaN/inf thermal pixels
     WriteImage(Register(thermal_, "thermal", timestamp_s, ".tiff"), apparent_c.clone());
     return 0;
   }

@@ -33,7 +33,9 @@ enum class ThermalEncoding { kRawCounts16, kFloatTiff };
 // Frame files are named by their timestamp with 6 decimals, as TUM does
 // (depth/1305031102.175304.png), and stored in the index with the same 6 decimals, so the
 // timestamps a reader gets are the given ones rounded to the microsecond. Every file is
-// written atomically (core/atomic_file.h). Until Finish() has run the folder has no
+// written atomically and checked byte for byte (core/atomic_file.h, core/image_io.h).
+// Commands hold a core::OutputFolder on the folder for the whole run (one writer at a
+// time; a run that does not finish leaves the folder marked incomplete). Until Finish() has run the folder has no
 // depth.txt and is not a valid scan, so an interrupted writer leaves no half-scan behind.
 // Finish() may be called again after more frames (e.g. periodically during capture): it
 // rewrites the indexes with everything added so far. Files of an earlier scan in the same
@@ -65,7 +67,7 @@ class ScanWriter {
 
   // Writes thermal/<t>.png (kRawCounts16: raw = round((apparent - raw_offset) / raw_scale),
   // saturated to [0, 65535] as a camera saturates, NaN -> 0) or thermal/<t>.tiff
-  // (kFloatTiff: the values as they are, NaN included). apparent_c: CV_32FC1 °C, rig
+  // (kFloatTiff: the values as they are; they must be finite, as readers refuse NaN/inf). apparent_c: CV_32FC1 °C, rig
   // thermal size. Returns the number of pixels saturated (kRawCounts16) or 0.
   int AddThermal(double timestamp_s, const cv::Mat& apparent_c,
                  ThermalEncoding encoding = ThermalEncoding::kRawCounts16);

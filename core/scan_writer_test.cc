@@ -220,7 +220,7 @@ TEST(ScanWriter, IndexFilesHaveTumHeaderAndOnlyWrittenStreams) {
   EXPECT_FALSE(fs::exists(folder / "thermal.txt"));
   EXPECT_FALSE(fs::exists(folder / "ffc.txt"));
   EXPECT_FALSE(fs::exists(folder / "groundtruth.txt"));
-  const std::string text = ReadFile(folder / "depth.txt");
+  const std::string text = ReadFile(folder / "depth.txt", kMaxMeshFileBytes);
   // Three '#' lines, then the frame.
   size_t pos = 0;
   for (int i = 0; i < 3; ++i) {

@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text_lines.h"
 
 namespace hw::core {
 
@@ -107,25 +108,18 @@ std::optional<Rigid3d> Trajectory::At(double timestamp_s, double max_gap_s) cons
 }
 
 Trajectory ReadTumTrajectory(const std::filesystem::path& path) {
-  return ParseTumTrajectory(ReadFile(path), path);
+  return ParseTumTrajectory(ReadFile(path, kMaxIndexFileBytes), path);
 }
 
 Trajectory ParseTumTrajectory(const std::string& text,
                               const std::filesystem::path& path_for_errors) {
   std::vector<TimedPose> poses;
   size_t previous_line = 0;
-  size_t line_number = 0;
-  size_t begin = 0;
-  while (begin < text.size()) {
-    size_t end = text.find('\n', begin);
-    if (end == std::string::npos) end = text.size();
-    std::string_view line(text.data() + begin, end - begin);
-    begin = end + 1;
-    ++line_number;
+  ForEachLine(text, [&](size_t line_number, std::string_view line) {
     const size_t hash = line.find('#');
     if (hash != std::string_view::npos) line = line.substr(0, hash);
     const std::vector<std::string_view> fields = SplitFields(line);
-    if (fields.empty()) continue;
+    if (fields.empty()) return;
     if (fields.size() != kTumFields.size()) {
       throw InputError(path_for_errors,
                        LineReason(line_number, "expected 8 numbers (timestamp tx ty tz qx qy "
@@ -176,7 +170,7 @@ Trajectory ParseTumTrajectory(const std::string& text,
     poses.push_back(TimedPose{timestamp_s,
                               Rigid3d(q, Eigen::Vector3d(values[1], values[2], values[3]))});
     previous_line = line_number;
-  }
+  });
   return Trajectory(std::move(poses));
 }
 

@@ -227,7 +227,7 @@ TEST(TrajectoryTest, FuzzReturnsOrThrowsInputError) {
   const Trajectory trajectory = RandomTrajectory(rng, 6);
   const fs::path dir = hw::test::TestFolder("fuzz");
   WriteTumTrajectory(dir / "t.txt", trajectory);
-  const std::string valid = ReadFile(dir / "t.txt");
+  const std::string valid = ReadFile(dir / "t.txt", kMaxMeshFileBytes);
   int parsed = 0, rejected = 0;
   auto run = [&](const std::string& text) {
     try {

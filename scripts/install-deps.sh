@@ -8,10 +8,10 @@ packages=(
   # toolchain
   build-essential cmake pkg-config ninja-build
   # core
-  libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libcli11-dev
+  libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libcli11-dev libpng-dev
   # calibrate
   libceres-dev libmrcal-dev libapriltag-dev
-  # analyze / fixtures
+  # analyze / fixtures; core decodes JPEG and TIFF frames with OpenImageIO
   libembree-dev libtbb-dev libopenimageio-dev
   # Debian's OpenImageIO CMake config names these files; find_package fails without them
   openimageio-tools python3-imath

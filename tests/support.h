@@ -3,6 +3,7 @@
 // Test support shared by every test executable (linked by hw_add_test).
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,13 @@ struct CommandResult {
   std::string output;
 };
 CommandResult RunCommand(const std::string& command);
+
+// Runs fn() in a forked child process (for code that may hang, kill the process, or change
+// process-wide state such as resource limits and signal handlers). Returns fn's return
+// value as the child's exit code (0..255), 128 + signal when the child was killed by one,
+// or kTimedOut when it had not ended after timeout_s (it is then killed).
+inline constexpr int kTimedOut = -1;
+int RunInChild(const std::function<int()>& fn, double timeout_s = 20);
 
 // Number of '\n' in s.
 int CountLines(const std::string& s);

@@ -1,0 +1,36 @@
+#pragma once
+
+#include <filesystem>
+
+namespace hw::core {
+
+// Clean-up on SIGINT / SIGTERM / SIGHUP: files registered here (the temporaries of atomic
+// writes) are unlinked by the signal handler, which then re-raises the signal with its
+// default action, so the process still ends as interrupted (exit status 128 + signal).
+// Only async-signal-safe calls (unlink, sigaction, raise) run in the handler.
+
+// Installs the handlers (idempotent; the CLI calls it first thing). Also ignores SIGXFSZ,
+// so that exceeding a file size limit is a write error (EFBIG) reported as an OutputError,
+// not a core dump. Without it, registered paths are simply never cleaned by a signal.
+void InstallInterruptHandlers();
+
+// Registers `path` for removal on a signal for the lifetime of this object. At most
+// kMaxRegisteredPaths at once (one per thread writing a file in practice); beyond that, or
+// for a path longer than PATH_MAX, the registration is skipped (best effort, never fails).
+class RemoveOnInterrupt {
+ public:
+  explicit RemoveOnInterrupt(const std::filesystem::path& path);
+  ~RemoveOnInterrupt();
+  RemoveOnInterrupt(const RemoveOnInterrupt&) = delete;
+  RemoveOnInterrupt& operator=(const RemoveOnInterrupt&) = delete;
+
+ private:
+  int slot_ = -1;
+};
+
+inline constexpr int kMaxRegisteredPaths = 256;
+
+// How many paths are registered now (tests).
+int NumPathsRegisteredForInterrupt();
+
+}  // namespace hw::core
