@@ -1,9 +1,9 @@
 #include "cli/command.h"
 
-#include <cstdio>
 #include <iostream>
 
 #include "core/error.h"
+#include "core/strings.h"
 
 namespace hw::cli {
 
@@ -31,8 +31,8 @@ int Parse(CLI::App& app, int argc, char** argv) {
     std::cout << app.help("", CLI::AppFormatMode::All);
     return kExitOk;
   } catch (const CLI::ParseError& e) {
-    std::cerr << "error: " << e.what() << "\n"
-              << "Run '" << app.get_name() << " --help' for the options.\n";
+    PrintError(e.what());
+    std::cerr << "Run '" << app.get_name() << " --help' for the options.\n";
     return kExitUsage;
   }
   return -1;
@@ -42,46 +42,72 @@ void ThrowIfInvalid(const std::string& message, const std::string& prefix) {
   if (!message.empty()) throw UsageError(prefix + message);
 }
 
+void PrintError(std::string_view message) {
+  // Scripts and log scanners read one line per error; a library's multi-line what() or a
+  // path holding a '\n' must not split it, nor a control character garble the terminal.
+  std::string line;
+  line.reserve(message.size());
+  for (const char c : message) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\n' || c == '\r' || c == '\t') {
+      line += ' ';
+    } else if (u < 0x20 || u == 0x7f) {
+      line += '?';
+    } else {
+      line += c;
+    }
+  }
+  while (!line.empty() && line.back() == ' ') line.pop_back();
+  std::cerr << "error: " << line << "\n";
+}
+
 int RunGuarded(const std::function<int()>& job) {
   try {
     return job();
   } catch (const UsageError& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    PrintError(e.what());
     return kExitUsage;
   } catch (const core::InputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    PrintError(e.what());
     return kExitFailure;
   } catch (const core::OutputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    PrintError(e.what());
     return kExitFailure;
   } catch (const std::bad_alloc&) {
-    std::cerr << "error: out of memory\n";
+    PrintError("out of memory");
     return kExitFailure;
   } catch (const std::exception& e) {
     // A library threw something unexpected (OpenCV, yaml-cpp, filesystem): still one line.
-    std::cerr << "error: " << e.what() << "\n";
+    PrintError(e.what());
     return kExitFailure;
   }
 }
 
 int RunHelp(int argc, char** argv) {
-  if (argc >= 2) {
-    const std::string name = argv[1];
+  CLI::App app("List the commands, or show one command's options.", "heatwave help");
+  std::string name;
+  app.add_option("command", name, "the command whose options to show");
+  if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  if (!name.empty()) {
     for (const Command& c : Commands()) {
-      if (name == c.name && name != "help") {
-        std::string prog = std::string("heatwave ") + c.name;
-        char* args[] = {prog.data(), const_cast<char*>("--help")};
-        return c.run(2, args);
-      }
+      if (name != c.name) continue;
+      // Every command, help included, shows its options as `heatwave <command> --help` does.
+      std::string prog = std::string("heatwave ") + c.name;
+      char* args[] = {prog.data(), const_cast<char*>("--help")};
+      return c.run(2, args);
     }
-    std::cerr << "error: unknown command '" << name << "'. Run 'heatwave help' for the list.\n";
+    PrintError("unknown command '" + name + "'. Run 'heatwave help' for the list.");
     return kExitUsage;
   }
   std::cout << "heatwave — handheld 3D thermography\n\n"
                "Usage: heatwave <command> [options]\n\nCommands:\n";
-  for (const Command& c : Commands()) std::printf("  %-12s %s\n", c.name, c.summary);
+  // std::cout, not printf: all output goes through one stream, whose errors main() checks.
+  for (const Command& c : Commands()) {
+    std::cout << core::StringPrintf("  %-12s %s\n", c.name, c.summary);
+  }
   std::cout << "\nRun 'heatwave <command> --help' for a command's options.\n"
-               "Exit codes: 0 ok, 1 failure (bad input file, failed check), 2 bad usage.\n";
+               "Exit codes: 0 ok, 1 failure (bad input file, failed check, unwritable output), "
+               "2 bad usage.\n";
   return kExitOk;
 }
 

@@ -2,6 +2,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 // CLI11 2.1's string helpers trip GCC 12's -Wnull-dereference (a false positive through
@@ -42,9 +43,15 @@ void AddCommonOptions(CLI::App& app, CommonOptions& options);
 // (the message has been printed to stderr with a hint to use --help).
 int Parse(CLI::App& app, int argc, char** argv);
 
+// Prints "error: <message>" on stderr as exactly one line, whatever the message holds:
+// '\n', '\r' and '\t' become spaces, other control characters '?' (trailing spaces are
+// dropped). Every error line of every command goes through here.
+void PrintError(std::string_view message);
+
 // Runs `job`, turning the errors of bad inputs and outputs into one clear line on stderr
-// ("error: <path>: <reason>") and kExitFailure; a failed options Check() message passed
-// as hw::cli::UsageError gives kExitUsage. Returns job's exit code otherwise.
+// ("error: <path>: <reason>", through PrintError) and kExitFailure; a failed options
+// Check() message passed as hw::cli::UsageError gives kExitUsage. Returns job's exit code
+// otherwise.
 int RunGuarded(const std::function<int()>& job);
 
 // Thrown by a command when its options fail their Check(): exit code 2.

@@ -27,7 +27,6 @@ TEST(Command, TableHasUniqueNamesAndSummaries) {
 
 TEST(Command, EveryCommandHasHelpAndRejectsUnknownOptions) {
   for (const Command& c : Commands()) {
-    if (std::string(c.name) == "help") continue;
     testing::internal::CaptureStdout();
     Argv help({std::string("heatwave ") + c.name, "--help"});
     EXPECT_EQ(c.run(help.argc(), help.argv()), kExitOk) << c.name;
@@ -53,6 +52,35 @@ TEST(Command, HelpListsCommandsAndUnknownIsUsageError) {
   Argv unknown({"heatwave help", "no-such-command"});
   EXPECT_EQ(RunHelp(unknown.argc(), unknown.argv()), kExitUsage);
   EXPECT_NE(testing::internal::GetCapturedStderr().find("no-such-command"), std::string::npos);
+}
+
+TEST(Command, HelpHelpShowsHelpsOwnUsage) {
+  testing::internal::CaptureStdout();
+  Argv help_help({"heatwave help", "help"});
+  EXPECT_EQ(RunHelp(help_help.argc(), help_help.argv()), kExitOk);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("heatwave help"), std::string::npos) << out;
+  EXPECT_NE(out.find("--help"), std::string::npos) << out;
+}
+
+TEST(Command, RunGuardedErrorsAreOneLine) {
+  // A library's what() may span lines or carry control characters (a path with a '\n');
+  // scripts read exactly one line per error.
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(RunGuarded([]() -> int { throw std::runtime_error("first\nsecond\r\tthird\x01\x7f\n"); }),
+            kExitFailure);
+  EXPECT_EQ(RunGuarded([]() -> int { throw core::InputError("a\nb/rig.yaml", "line 1:\nbad"); }),
+            kExitFailure);
+  EXPECT_EQ(RunGuarded([]() -> int {
+              ThrowIfInvalid("x: must be\n> 0");
+              return kExitOk;
+            }),
+            kExitUsage);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err,
+            "error: first second  third??\n"
+            "error: a b/rig.yaml: line 1: bad\n"
+            "error: x: must be > 0\n");
 }
 
 TEST(Command, RunGuardedMapsErrorsToExitCodes) {

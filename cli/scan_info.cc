@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "cli/command.h"
+#include "core/json.h"
 #include "core/progress.h"
 #include "core/strings.h"
 
@@ -18,23 +19,6 @@ namespace {
 
 // At most this many unloadable frames are listed in the text report.
 constexpr size_t kMaxListedProblems = 20;
-
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    if (c == '"') {
-      out += "\\\"";
-    } else if (c == '\\') {
-      out += "\\\\";
-    } else if (u < 0x20 || u == 0x7f) {
-      out += core::StringPrintf("\\u%04x", u);
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
 
 // The shortest text that reads back as the same double.
 std::string JsonNumber(double value) {
@@ -49,7 +33,7 @@ std::string JsonNumber(double value) {
 class JsonObject {
  public:
   JsonObject& Add(const std::string& key, const std::string& raw_value) {
-    body_ += (body_.empty() ? "" : ", ") + JsonString(key) + ": " + raw_value;
+    body_ += (body_.empty() ? "" : ", ") + core::JsonString(key) + ": " + raw_value;
     return *this;
   }
   JsonObject& Number(const std::string& key, double value) { return Add(key, JsonNumber(value)); }
@@ -58,7 +42,7 @@ class JsonObject {
     return Add(key, value ? "true" : "false");
   }
   JsonObject& String(const std::string& key, const std::string& value) {
-    return Add(key, JsonString(value));
+    return Add(key, core::JsonString(value));
   }
   std::string str() const { return "{" + body_ + "}"; }
 
@@ -229,7 +213,7 @@ std::string FormatScanInfoJson(const ScanInfoReport& report) {
                           .str());
   }
   std::vector<std::string> warnings;
-  for (const std::string& w : s.warnings) warnings.push_back(JsonString(w));
+  for (const std::string& w : s.warnings) warnings.push_back(core::JsonString(w));
   std::vector<std::string> problems;
   for (const core::FrameProblem& p : report.frame_problems) {
     problems.push_back(JsonObject()
@@ -241,8 +225,8 @@ std::string FormatScanInfoJson(const ScanInfoReport& report) {
   }
   std::string out = "{\n";
   out += "  \"valid\": " + std::string(report.frame_problems.empty() ? "true" : "false") + ",\n";
-  out += "  \"folder\": " + JsonString(s.folder.string()) + ",\n";
-  out += "  \"rig_path\": " + JsonString(s.rig_path.string()) + ",\n";
+  out += "  \"folder\": " + core::JsonString(s.folder.string()) + ",\n";
+  out += "  \"rig_path\": " + core::JsonString(s.rig_path.string()) + ",\n";
   out += "  \"depth_scale\": " + JsonNumber(s.depth_scale) + ",\n";
   out += "  \"streams\": " + JsonArray(streams, "  ") + ",\n";
   out += "  \"cameras\": " + JsonArray(cameras, "  ") + ",\n";
@@ -312,8 +296,9 @@ int RunScanInfo(int argc, char** argv) {
       std::cout << FormatScanInfo(report) << std::flush;
     }
     if (!report.frame_problems.empty()) {
-      std::cerr << "error: " << report.frame_problems.size() << " of " << report.total_frames
-                << " frames cannot be loaded; first: " << report.frame_problems[0].message << "\n";
+      PrintError(std::to_string(report.frame_problems.size()) + " of " +
+                 std::to_string(report.total_frames) +
+                 " frames cannot be loaded; first: " + report.frame_problems[0].message);
       return kExitFailure;
     }
     return kExitOk;

@@ -39,7 +39,8 @@ ScanInfoReport InspectScan(const ScanInfoOptions& options);
 
 // The one-screen text report: streams table, rig, ground truth, warnings, frame check.
 std::string FormatScanInfo(const ScanInfoReport& report);
-// The same as one JSON object.
+// The same as one JSON object (RFC 8259: every string goes through core::JsonString, so
+// the output is valid UTF-8 whatever bytes the scan's paths hold).
 std::string FormatScanInfoJson(const ScanInfoReport& report);
 
 }  // namespace hw::cli

@@ -69,6 +69,17 @@ fs::path WriteValidScan(const fs::path& folder) {
   return folder;
 }
 
+// Runs a strict RFC 8259 parser (Python's json, on text decoded as strict UTF-8) on `json`;
+// "" when it parses, else the parser's complaint.
+std::string StrictJsonProblem(const std::string& json) {
+  const fs::path file = hw::test::TestFolder("json") / "report.json";
+  core::WriteFileAtomically(file, json);
+  const hw::test::CommandResult r = hw::test::RunCommand(
+      "python3 -c 'import json,sys; json.loads(sys.stdin.buffer.read().decode(\"utf-8\"))' < '" +
+      file.string() + "'");
+  return r.exit_code == 0 ? "" : r.output + " (exit " + std::to_string(r.exit_code) + ")";
+}
+
 TEST(ScanInfo, ValidScanExitsZeroWithASummary) {
   const fs::path scan = WriteValidScan(hw::test::FreshPath());
   const Result r = RunCli({scan.string()});
@@ -203,6 +214,26 @@ TEST(ScanInfo, JsonReport) {
     ASSERT_GE(depth, 0);
   }
   EXPECT_EQ(depth, 0);
+  EXPECT_EQ(StrictJsonProblem(r.out), "") << r.out;
+}
+
+TEST(ScanInfo, JsonIsValidUtf8ForAnyPathBytes) {
+  // Linux paths are bytes: a folder name that is not UTF-8 and one with a control
+  // character must still give JSON a strict parser accepts.
+  // Written under a plain name and renamed: ScanWriter puts the folder name in the index
+  // files' header comment, where a '\n' would break the scan itself.
+  const fs::path scan = hw::test::FreshPath("bad\xff\xfe name\x01\n");
+  fs::rename(WriteValidScan(hw::test::FreshPath("plain")), scan);
+  fs::remove(scan / "depth" / "0.100000.png");  // a warning naming a path
+  core::WriteFileAtomically(scan / "depth" / "0.200000.png", "garbage");  // a frame problem
+  const Result r = RunCli({scan.string(), "--json", "--quiet", "--check-frames"});
+  EXPECT_EQ(r.code, kExitFailure) << r.err;
+  EXPECT_EQ(StrictJsonProblem(r.out), "") << r.out;
+  // Each invalid byte is U+FFFD; control characters are \u escapes.
+  EXPECT_NE(r.out.find("bad\xEF\xBF\xBD\xEF\xBF\xBD name\\u0001\\u000a"), std::string::npos)
+      << r.out;
+  // The one-line error on stderr stays one line despite the '\n' in the path.
+  EXPECT_EQ(hw::test::CountLines(r.err), 1) << r.err;
 }
 
 TEST(ScanInfo, InspectScanTypedApi) {

@@ -1,6 +1,7 @@
 // heatwave synth: renders a synthetic scan (fixtures/synth_scan.h) or a calibration session
 // (fixtures/calibration_sessions.h) with exact ground truth.
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include "cli/command.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/output_folder.h"
 #include "core/progress.h"
 #include "core/strings.h"
 #include "fixtures/calibration_sessions.h"
@@ -51,23 +53,37 @@ const std::vector<std::string>& ScanEntries() {
   return entries;
 }
 
-// Refuses a non-empty output folder unless overwrite; with overwrite, removes the scan
-// entries of the earlier scan so that no stale frame or truth file survives.
-void PrepareOutputFolder(const fs::path& out, bool overwrite) {
+// Takes the output folder for this run (one run at a time: core/output_folder.h), refuses
+// a non-empty one unless overwrite, and with overwrite removes the scan entries of the
+// earlier scan — every frame folder whole, indexed or not — so that no stale frame or truth
+// file survives. The folder stays marked incomplete until Commit().
+std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, bool overwrite) {
   std::error_code ec;
-  if (!fs::exists(out, ec)) return;
-  if (!fs::is_directory(out, ec)) {
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
     throw UsageError("--out " + out.string() + ": exists and is not a folder");
   }
-  if (fs::is_empty(out, ec)) return;
+  auto folder = std::make_unique<core::OutputFolder>(out, "heatwave synth");
+  if (folder->IsEmpty()) return folder;
   if (!overwrite) {
+    folder->Abandon();
     throw UsageError("--out " + out.string() +
                      ": folder is not empty; pass --overwrite to replace the scan in it");
   }
-  for (const std::string& entry : ScanEntries()) {
-    fs::remove_all(out / entry, ec);
-    if (ec) throw core::OutputError(out / entry, "cannot remove: " + ec.message());
+  folder->Remove(ScanEntries());
+  return folder;
+}
+
+// --seed: a whole number in [0, 2^64 - 1]. CLI11 reads "-1" as 2^64 - 1 and saturates
+// values beyond 2^64; both are refused here.
+uint64_t ParseSeed(const std::string& text) {
+  uint64_t seed = 0;
+  const char* last = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), last, seed);
+  if (text.empty() || ec != std::errc() || ptr != last) {
+    throw UsageError("--seed: must be a whole number from 0 to 18446744073709551615, got '" +
+                     text + "'");
   }
+  return seed;
 }
 
 // A progress bar created at the first report, when the total is known.
@@ -165,6 +181,7 @@ struct SynthArguments {
   std::string scene;
   std::string session;
   fs::path out;
+  std::string seed_text = "1";  // parsed by ParseSeed
   uint64_t seed = 1;
   std::string size = "small";
   std::string trajectory = "smooth";
@@ -203,12 +220,13 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   o.write_rgb = !args.no_rgb;
   o.write_thermal = !args.no_thermal;
   ThrowIfInvalid(o.Check());
-  PrepareOutputFolder(args.out, args.overwrite);
+  const std::unique_ptr<core::OutputFolder> folder = PrepareOutputFolder(args.out, args.overwrite);
 
   LazyProgress progress("render", common.quiet);
   const fixtures::SynthScanSummary summary =
       fixtures::SynthesizeScan(o, args.out, [&](int done, int total) { progress(done, total); });
   progress.Finish();
+  folder->Commit();
   if (!common.quiet) std::cout << FormatScanSummary(o, summary) << std::flush;
   return kExitOk;
 }
@@ -235,13 +253,14 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
   if (args.thermal_format == "tiff")
     o.common().thermal_encoding = core::ThermalEncoding::kFloatTiff;
   ThrowIfInvalid(o.Check());
-  PrepareOutputFolder(args.out, args.overwrite);
+  const std::unique_ptr<core::OutputFolder> folder = PrepareOutputFolder(args.out, args.overwrite);
 
   LazyProgress progress("render", common.quiet);
   const auto started = std::chrono::steady_clock::now();
   const fixtures::SessionSummary summary = fixtures::SynthesizeCalibrationSession(
       o, args.out, [&](int done, int total) { progress(done, total); });
   progress.Finish();
+  folder->Commit();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (!common.quiet) {
@@ -269,7 +288,8 @@ int RunSynth(int argc, char** argv) {
       "calibration session to render instead: " + Join(fixtures::CalibrationSessionNames()));
   scene->excludes(session);
   app.add_option("--out", args.out, "output scan folder (created)");
-  app.add_option("--seed", args.seed, "seed of everything random")->capture_default_str();
+  app.add_option("--seed", args.seed_text, "seed of everything random, 0 to 2^64-1")
+      ->capture_default_str();
   app.add_option("--size", args.size,
                  "small: tiny images and 1 s (tests); full: 640x480 depth and colour, 320x240 "
                  "thermal, 10 s")
@@ -306,6 +326,7 @@ int RunSynth(int argc, char** argv) {
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
 
   return RunGuarded([&] {
+    args.seed = ParseSeed(args.seed_text);
     if (args.list) {
       std::cout << "Scenes:   " << Join(fixtures::SceneNames()) << "\n"
                 << "Sessions: " << Join(fixtures::CalibrationSessionNames()) << "\n";
@@ -334,6 +355,9 @@ int RunSynth(int argc, char** argv) {
         if (given) throw UsageError(std::string(name) + ": applies to --scene only");
       }
       return RunSession(args, common);
+    }
+    if (args.rooms && args.scene != "large") {
+      throw UsageError("--rooms: applies to the 'large' scene only, not '" + args.scene + "'");
     }
     return RunScan(args, common);
   });

@@ -26,7 +26,7 @@ std::map<std::string, std::string> ReadTree(const fs::path& folder) {
   std::map<std::string, std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(folder)) {
     if (entry.is_regular_file()) {
-      files[fs::relative(entry.path(), folder).string()] = hw::core::ReadFile(entry.path());
+      files[fs::relative(entry.path(), folder).string()] = hw::core::ReadFile(entry.path(), hw::core::kMaxMeshFileBytes);
     }
   }
   return files;
