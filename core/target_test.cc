@@ -19,6 +19,8 @@ namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
+using hw::test::LineOf;
+using hw::test::Replace;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
@@ -30,16 +32,6 @@ std::string TargetError(const std::string& text) {
     return e.what();
   }
   return "<no error>";
-}
-
-// `text` with the one occurrence of `from` replaced by `to` (fails the test if `from` does
-// not occur exactly once: a silently unchanged text would make an error test vacuous).
-std::string Replace(const std::string& text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at == std::string::npos) return text;
-  EXPECT_EQ(text.find(from, at + 1), std::string::npos) << "not unique: " << from;
-  return text.substr(0, at) + to + text.substr(at + from.size());
 }
 
 void ExpectSameTarget(const Target& a, const Target& b) {

@@ -45,6 +45,12 @@ CommandResult RunCommand(const std::string& command);
 inline constexpr int kTimedOut = -1;
 int RunInChild(const std::function<int()>& fn, double timeout_s = 20);
 
+// `text` with the one occurrence of `from` replaced by `to`; fails the running test if
+// `from` does not occur exactly once (a silently unchanged text makes an error test vacuous).
+std::string Replace(const std::string& text, const std::string& from, const std::string& to);
+// 1-based line of the first occurrence of `needle` in `text` (fails the test if absent).
+int LineOf(const std::string& text, const std::string& needle);
+
 // Number of '\n' in s.
 int CountLines(const std::string& s);
 
