@@ -45,18 +45,7 @@ void ThrowIfInvalid(const std::string& message, const std::string& prefix) {
 void PrintError(std::string_view message) {
   // Scripts and log scanners read one line per error; a library's multi-line what() or a
   // path holding a '\n' must not split it, nor a control character garble the terminal.
-  std::string line;
-  line.reserve(message.size());
-  for (const char c : message) {
-    const auto u = static_cast<unsigned char>(c);
-    if (c == '\n' || c == '\r' || c == '\t') {
-      line += ' ';
-    } else if (u < 0x20 || u == 0x7f) {
-      line += '?';
-    } else {
-      line += c;
-    }
-  }
+  std::string line = core::OneLineMessage(message);
   while (!line.empty() && line.back() == ' ') line.pop_back();
   std::cerr << "error: " << line << "\n";
 }

@@ -148,9 +148,6 @@ std::string OiioError(OIIO::ImageInput* input) {
   std::string message = input ? input->geterror() : std::string();
   const std::string global = OIIO::geterror();  // always drained: OIIO prints pending errors at exit
   if (message.empty()) message = global;
-  for (char& c : message) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
   return message.empty() ? "unknown decoder error" : message;
 }
 

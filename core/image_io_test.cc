@@ -2,7 +2,6 @@
 
 #include <sys/resource.h>
 #include <sys/stat.h>
-#include <zlib.h>
 
 #include <chrono>
 #include <csignal>
@@ -18,6 +17,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
+#include "core/png_test_support.h"
 #include "tests/support.h"
 
 namespace hw::core {
@@ -25,37 +25,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-std::string Chunk(const std::string& type, const std::string& data) {
-  std::string out;
-  const auto be32 = [&out](uint32_t v) {
-    for (int shift = 24; shift >= 0; shift -= 8) out += static_cast<char>((v >> shift) & 0xff);
-  };
-  be32(static_cast<uint32_t>(data.size()));
-  out += type + data;
-  const std::string crc_input = type + data;
-  be32(static_cast<uint32_t>(
-      crc32(0, reinterpret_cast<const Bytef*>(crc_input.data()), static_cast<uInt>(crc_input.size()))));
-  return out;
-}
-
-// A PNG whose header claims width x height (16-bit grey) but whose data holds only
-// `rows` zero rows: the header of a decompression bomb without its cost to the test.
-std::string PngClaiming(uint32_t width, uint32_t height, int rows) {
-  std::string ihdr;
-  for (const uint32_t v : {width, height}) {
-    for (int shift = 24; shift >= 0; shift -= 8) ihdr += static_cast<char>((v >> shift) & 0xff);
-  }
-  ihdr += std::string("\x10\x00\x00\x00\x00", 5);  // 16-bit, grey, deflate, filter 0, no interlace
-  const std::string raw(static_cast<size_t>(rows) * (1 + 2 * width), '\0');
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::string compressed(size, '\0');
-  compress(reinterpret_cast<Bytef*>(compressed.data()), &size,
-           reinterpret_cast<const Bytef*>(raw.data()), static_cast<uLong>(raw.size()));
-  compressed.resize(size);
-  return std::string("\x89PNG\r\n\x1a\n", 8) + Chunk("IHDR", ihdr) + Chunk("IDAT", compressed) +
-         Chunk("IEND", "");
-}
 
 cv::Mat RandomImage(int rows, int cols, int type, uint64_t seed) {
   cv::Mat image(rows, cols, type);
@@ -104,7 +73,7 @@ TEST(ImageIo, TiffAndJpegDecode) {
 
 TEST(ImageIo, HeaderIsCheckedBeforeDecompression) {
   // 30000 x 30000 x 16 bit = 1.8 GB decoded; the header alone must decide.
-  const std::string bomb = PngClaiming(30000, 30000, 2);
+  const std::string bomb = hw::test::PngClaiming(30000, 30000, 2);
   const ImageHeader header = DecodeImageHeader(bomb, "bomb.png");
   EXPECT_EQ(header.format, "PNG");
   EXPECT_EQ(header.width, 30000);

@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "core/error.h"
+#include "core/strings.h"
 
 namespace hw::core {
 
@@ -23,12 +24,8 @@ namespace {
 std::string ReadDetail(int fd) {
   char buffer[512];
   const ssize_t n = ::pread(fd, buffer, sizeof(buffer), 0);
-  std::string detail;
-  for (ssize_t i = 0; i < n && buffer[i] != '\n'; ++i) {
-    const auto c = static_cast<unsigned char>(buffer[i]);
-    detail += (c >= 0x20 && c != 0x7f) ? static_cast<char>(c) : '?';
-  }
-  return detail;
+  const std::string_view text(buffer, n > 0 ? static_cast<size_t>(n) : 0);
+  return OneLineMessage(text.substr(0, text.find('\n')));
 }
 
 std::string NowUtc() {

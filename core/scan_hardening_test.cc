@@ -2,7 +2,6 @@
 // folder, foreign line endings, incomplete writes, unreadable folders, non-finite pixels.
 #include <sys/stat.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <chrono>
 #include <filesystem>
@@ -21,6 +20,7 @@
 #include "core/output_folder.h"
 #include "core/scan.h"
 #include "core/scan_writer.h"
+#include "core/png_test_support.h"
 #include "tests/support.h"
 
 namespace hw::core {
@@ -145,40 +145,11 @@ TEST(ScanHardening, SpecialFramesAreNamedNotCalledMissing) {
   EXPECT_THAT(problems[0].message, Not(HasSubstr("missing")));
 }
 
-// The header of a 30000 x 30000 16-bit PNG (1.8 GB decoded) with two rows of data.
-std::string BombPng() {
-  std::string ihdr;
-  for (const uint32_t v : {30000u, 30000u}) {
-    for (int shift = 24; shift >= 0; shift -= 8) ihdr += static_cast<char>((v >> shift) & 0xff);
-  }
-  ihdr += std::string("\x10\x00\x00\x00\x00", 5);
-  const std::string raw(2 * (1 + 2 * 30000), '\0');
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::string idat(size, '\0');
-  compress(reinterpret_cast<Bytef*>(idat.data()), &size, reinterpret_cast<const Bytef*>(raw.data()),
-           static_cast<uLong>(raw.size()));
-  idat.resize(size);
-  const auto chunk = [](const std::string& type, const std::string& data) {
-    std::string out;
-    const auto be32 = [&out](uint32_t v) {
-      for (int shift = 24; shift >= 0; shift -= 8) out += static_cast<char>((v >> shift) & 0xff);
-    };
-    be32(static_cast<uint32_t>(data.size()));
-    out += type + data;
-    const std::string crc_input = type + data;
-    be32(static_cast<uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(crc_input.data()),
-                                     static_cast<uInt>(crc_input.size()))));
-    return out;
-  };
-  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IDAT", idat) +
-         chunk("IEND", "");
-}
-
 TEST(ScanHardening, OversizedFramesAreRefusedOnTheirHeader) {
   const fs::path folder = WriteSmallScan();
   const Scan scan = Scan::Open(folder);
-  WriteFileAtomically(scan.FramePath(Stream::kDepth, 0), BombPng());
-  WriteFileAtomically(scan.FramePath(Stream::kThermal, 0), BombPng());
+  WriteFileAtomically(scan.FramePath(Stream::kDepth, 0), hw::test::PngClaiming(30000, 30000, 2));
+  WriteFileAtomically(scan.FramePath(Stream::kThermal, 0), hw::test::PngClaiming(30000, 30000, 2));
   const auto start = std::chrono::steady_clock::now();
   for (int repeat = 0; repeat < 4; ++repeat) {
     try {

@@ -11,6 +11,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/strings.h"
 
 namespace hw::core {
 
@@ -19,15 +20,10 @@ namespace fs = std::filesystem;
 namespace {
 
 // The folder's name for index headers ("scan" for both "a/scan" and "a/scan/").
-// Control characters (a '\n' in a folder name would end the comment line) become '?'.
+// One line: a '\n' in a folder name would end the header's comment line.
 std::string FolderName(const fs::path& folder) {
   const fs::path name = folder.filename();
-  std::string text = name.empty() ? folder.parent_path().filename().string() : name.string();
-  for (char& c : text) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7f) c = '?';
-  }
-  return text;
+  return OneLineMessage(name.empty() ? folder.parent_path().filename().string() : name.string());
 }
 
 }  // namespace

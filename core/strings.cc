@@ -20,4 +20,17 @@ std::string StringPrintf(const char* format, ...) {
   return out;
 }
 
+std::string OneLineMessage(std::string_view text) {
+  std::string line(text);
+  for (char& c : line) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\n' || c == '\r' || c == '\t') {
+      c = ' ';
+    } else if (u < 0x20 || u == 0x7f) {
+      c = '?';
+    }
+  }
+  return line;
+}
+
 }  // namespace hw::core

@@ -1,10 +1,16 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 namespace hw::core {
 
 // printf into a std::string (summaries, tables, messages).
 std::string StringPrintf(const char* format, ...) __attribute__((format(printf, 1, 2)));
+
+// `text` made one printable line for a message: '\n', '\r' and '\t' become spaces, other
+// control characters '?'. Error messages are read one line per error (scripts, logs); a
+// path or a library's reason holding a newline must not split one.
+std::string OneLineMessage(std::string_view text);
 
 }  // namespace hw::core
