@@ -199,11 +199,16 @@ struct SynthArguments {
   bool list = false;
 };
 
+// Default --duration of a full-size --trajectory loop, s.
+constexpr double kFullLoopDurationS = 90;
+
 int RunScan(const SynthArguments& args, const CommonOptions& common) {
   fixtures::SynthScanOptions o = args.size == "full"
                                      ? fixtures::SynthScanOptions::Full(args.scene)
                                      : fixtures::SynthScanOptions::Small(args.scene);
   o.seed = args.seed;
+  // A full-size loop walks the whole inspection route at an operator's pace.
+  if (args.trajectory == "loop" && args.size == "full") o.duration_s = kFullLoopDurationS;
   if (args.duration_s) o.duration_s = *args.duration_s;
   if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
   if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
@@ -295,10 +300,13 @@ int RunSynth(int argc, char** argv) {
                  "thermal, 10 s")
       ->check(CLI::IsMember({"small", "full"}))
       ->capture_default_str();
-  app.add_option("--duration", args.duration_s, "length of the recording, s");
+  app.add_option("--duration", args.duration_s,
+                 "length of the recording, s (default 1 small, 10 full, 90 for a full loop)");
   app.add_option("--trajectory", args.trajectory,
-                 "hand-held motion: smooth sweep with tremor, or jerky bursts (~1 m/s, ~90°/s)")
-      ->check(CLI::IsMember({"smooth", "jerky"}))
+                 "hand-held motion, aim wandering over the target: smooth sweep with tremor, "
+                 "jerky bursts (~1 m/s, ~90°/s), or loop: an inspection walk round the "
+                 "equipment back to its start, lasting --duration")
+      ->check(CLI::IsMember({"smooth", "jerky", "loop"}))
       ->capture_default_str();
   app.add_option("--depth-rate", args.depth_rate_hz, "depth frame rate, Hz (default 30)");
   app.add_option("--rgb-rate", args.rgb_rate_hz, "colour frame rate, Hz (default 30)");
