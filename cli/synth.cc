@@ -124,10 +124,20 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
   out += StreamLine("rgb", s.rgb_frames, o.rgb_rate_hz,
                     core::StringPrintf(", clock offset %+.3f s", o.rgb_time_offset_s));
   out += StreamLine("thermal", s.thermal_frames, o.thermal_rate_hz,
-                    core::StringPrintf(", clock offset %+.3f s, %s, %d FFC events", o.thermal_time_offset_s,
+                    core::StringPrintf(", %dx%d, clock offset %+.3f s, %s, %d FFC events",
+                           static_cast<int>(std::lround(320 * o.image_scale * o.thermal_image_scale)),
+                           static_cast<int>(std::lround(240 * o.image_scale * o.thermal_image_scale)),
+                           o.thermal_time_offset_s,
                            o.thermal_encoding == core::ThermalEncoding::kRawCounts16 ? "raw counts"
                                                                                      : "float TIFF",
                            s.ffc_events));
+  if (s.thermal_frames > 0) {
+    out += core::StringPrintf(
+        "  %-8s radiometric gain %.4f, offset %+.2f K; %d frames frozen, %d dropped by the "
+        "shutter\n",
+        "", s.thermal_gain, s.thermal_offset_k, s.thermal_frames_frozen,
+        s.thermal_frames_dropped);
+  }
   out += core::StringPrintf("Time span  %.6f .. %.6f s on the depth clock (%.3f s)\n", s.start_time_s,
                 s.end_time_s, s.end_time_s - s.start_time_s);
   out += core::StringPrintf("Motion     mean %.2f m/s, max %.2f m/s; mean %.0f deg/s, max %.0f deg/s\n",
@@ -186,6 +196,8 @@ struct SynthArguments {
   std::string size = "small";
   std::string trajectory = "smooth";
   std::string thermal_format = "raw";
+  std::string thermal_camera = "standard";
+  std::string ffc_frames = "freeze";
   std::optional<double> duration_s;
   std::optional<double> depth_rate_hz, rgb_rate_hz, thermal_rate_hz;
   std::optional<double> rgb_offset_s, thermal_offset_s;
@@ -209,6 +221,11 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   o.seed = args.seed;
   // A full-size loop walks the whole inspection route at an operator's pace.
   if (args.trajectory == "loop" && args.size == "full") o.duration_s = kFullLoopDurationS;
+  // The preset first: it sets the thermal rate that --thermal-rate may override.
+  if (!fixtures::ApplyThermalCamera(args.thermal_camera, o)) {
+    throw UsageError("--thermal-camera: unknown camera '" + args.thermal_camera + "'");
+  }
+  o.thermal.ffc_drop_frames = args.ffc_frames == "drop";
   if (args.duration_s) o.duration_s = *args.duration_s;
   if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
   if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
@@ -310,8 +327,18 @@ int RunSynth(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--depth-rate", args.depth_rate_hz, "depth frame rate, Hz (default 30)");
   app.add_option("--rgb-rate", args.rgb_rate_hz, "colour frame rate, Hz (default 30)");
+  app.add_option("--thermal-camera", args.thermal_camera,
+                 "thermal camera: standard (320x240, 30 Hz, accuracy 1-2 K / 2 %), fast (the "
+                 "same at 60 Hz), low-cost (160x120 Lepton-class, 9 Hz, 2-5 K / 5 %)")
+      ->check(CLI::IsMember(fixtures::ThermalCameraNames()))
+      ->capture_default_str();
   app.add_option("--thermal-rate", args.thermal_rate_hz,
-                 "thermal frame rate, Hz (default 30; real cameras 9, 27, 30, 60, 80)");
+                 "thermal frame rate, Hz (default: the camera's; real cameras 9, 27, 30, 60, 80)");
+  app.add_option("--ffc-frames", args.ffc_frames,
+                 "thermal frames during a flat-field shutter closure: freeze (the last frame "
+                 "repeated, as FLIR and Seek cameras do) or drop")
+      ->check(CLI::IsMember({"freeze", "drop"}))
+      ->capture_default_str();
   app.add_option("--rgb-offset", args.rgb_offset_s,
                  "rig.yaml time_offset_s of the colour stream, s (default +0.012)");
   app.add_option("--thermal-offset", args.thermal_offset_s,
@@ -324,7 +351,7 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--rooms", args.rooms, "rooms of the 'large' scene");
   app.add_flag("--perturb-rig", args.perturb_rig,
                "write a deliberately wrong rig.yaml and the true one as truth/rig.yaml");
-  app.add_flag("--no-noise", args.no_noise, "ideal sensors: no noise, dropouts or drift");
+  app.add_flag("--no-noise", args.no_noise, "ideal sensors: no noise, dropouts, drift, thermal calibration error or frames lost to the shutter");
   app.add_flag("--no-rgb", args.no_rgb, "render no colour stream");
   app.add_flag("--no-thermal", args.no_thermal, "render no thermal stream");
   app.add_flag("--overwrite", args.overwrite,
@@ -351,6 +378,8 @@ int RunSynth(int argc, char** argv) {
           {args.depth_rate_hz.has_value(), "--depth-rate"},
           {args.rgb_rate_hz.has_value(), "--rgb-rate"},
           {args.thermal_rate_hz.has_value(), "--thermal-rate"},
+          {args.thermal_camera != "standard", "--thermal-camera"},
+          {args.ffc_frames != "freeze", "--ffc-frames"},
           {args.rgb_offset_s.has_value(), "--rgb-offset"},
           {args.thermal_offset_s.has_value(), "--thermal-offset"},
           {args.scene_scale.has_value(), "--scene-scale"},
