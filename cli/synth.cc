@@ -140,6 +140,14 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
   }
   out += core::StringPrintf("Time span  %.6f .. %.6f s on the depth clock (%.3f s)\n", s.start_time_s,
                 s.end_time_s, s.end_time_s - s.start_time_s);
+  out += core::StringPrintf(
+      "Timing     stamps jittered by up to %.2f ms, %lld frames dropped "
+      "(truth/frame_times.txt: true times)\n",
+      s.max_stamp_jitter_s * 1e3, static_cast<long long>(s.dropped_frames));
+  if (s.rgb_frames > 0) {
+    out += core::StringPrintf("Colour     auto exposure gain %.2f .. %.2f\n", s.min_exposure_gain,
+                              s.max_exposure_gain);
+  }
   out += core::StringPrintf("Motion     mean %.2f m/s, max %.2f m/s; mean %.0f deg/s, max %.0f deg/s\n",
                 s.motion.mean_speed_m_per_s, s.motion.max_speed_m_per_s,
                 s.motion.mean_rate_rad_per_s * 180 / std::numbers::pi,
@@ -207,6 +215,12 @@ struct SynthArguments {
   bool no_noise = false;
   bool no_rgb = false;
   bool no_thermal = false;
+  bool no_jitter = false;
+  bool no_drops = false;
+  bool no_rolling_shutter = false;
+  bool no_specular = false;
+  bool no_shadows = false;
+  bool no_auto_exposure = false;
   bool overwrite = false;
   bool list = false;
 };
@@ -241,6 +255,12 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   o.noise = !args.no_noise;
   o.write_rgb = !args.no_rgb;
   o.write_thermal = !args.no_thermal;
+  if (args.no_jitter) o.timing.jitter_std_s = 0;
+  if (args.no_drops) o.timing.drop_probability = o.timing.burst_probability = 0;
+  if (args.no_rolling_shutter) o.colour.readout_s = 0;
+  if (args.no_specular) o.colour.specular = false;
+  if (args.no_shadows) o.colour.shadows = false;
+  if (args.no_auto_exposure) o.auto_exposure.exposure = o.auto_exposure.white_balance = false;
   ThrowIfInvalid(o.Check());
   const std::unique_ptr<core::OutputFolder> folder = PrepareOutputFolder(args.out, args.overwrite);
 
@@ -354,6 +374,16 @@ int RunSynth(int argc, char** argv) {
   app.add_flag("--no-noise", args.no_noise, "ideal sensors: no noise, dropouts, drift, thermal calibration error or frames lost to the shutter");
   app.add_flag("--no-rgb", args.no_rgb, "render no colour stream");
   app.add_flag("--no-thermal", args.no_thermal, "render no thermal stream");
+  app.add_flag("--no-jitter", args.no_jitter,
+               "stamp every frame at its true time (default: ~2 ms driver jitter)");
+  app.add_flag("--no-drops", args.no_drops,
+               "deliver every frame (default: ~1.2 % dropped singly, bursts of 3-10)");
+  app.add_flag("--no-rolling-shutter", args.no_rolling_shutter,
+               "global-shutter colour camera (default: rows read out over 27 ms)");
+  app.add_flag("--no-specular", args.no_specular, "no highlights on glossy surfaces");
+  app.add_flag("--no-shadows", args.no_shadows, "no cast shadows in colour frames");
+  app.add_flag("--no-auto-exposure", args.no_auto_exposure,
+               "fixed colour gains (default: auto exposure and white balance with a lag)");
   app.add_flag("--overwrite", args.overwrite,
                "replace the scan in a non-empty --out folder (other files are kept)");
   app.add_flag("--list", args.list, "list the scenes and sessions and exit");
@@ -387,7 +417,13 @@ int RunSynth(int argc, char** argv) {
           {args.perturb_rig, "--perturb-rig"},
           {args.no_noise, "--no-noise"},
           {args.no_rgb, "--no-rgb"},
-          {args.no_thermal, "--no-thermal"}};
+          {args.no_thermal, "--no-thermal"},
+          {args.no_jitter, "--no-jitter"},
+          {args.no_drops, "--no-drops"},
+          {args.no_rolling_shutter, "--no-rolling-shutter"},
+          {args.no_specular, "--no-specular"},
+          {args.no_shadows, "--no-shadows"},
+          {args.no_auto_exposure, "--no-auto-exposure"}};
       for (const auto& [given, name] : scan_only) {
         if (given) throw UsageError(std::string(name) + ": applies to --scene only");
       }

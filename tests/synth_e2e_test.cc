@@ -43,9 +43,10 @@ TEST(SynthCli, ListsScenesAndSessions) {
 
 TEST(SynthCli, RendersAScanThatOpens) {
   const fs::path out = FreshPath("scan") / "scan";
+  // Regular streams (no stamp jitter, no dropped frames), so counts and periods are exact.
   const hw::test::CommandResult r = Heatwave(
       "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
-      "--perturb-rig --out " +
+      "--perturb-rig --no-jitter --no-drops --out " +
       out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // The summary names the streams and the planted regions.
@@ -59,12 +60,13 @@ TEST(SynthCli, RendersAScanThatOpens) {
   EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
   EXPECT_TRUE(fs::exists(out / "truth" / "scene.ply"));
   EXPECT_TRUE(fs::exists(out / "truth" / "hotspots.yaml"));
+  EXPECT_TRUE(fs::exists(out / "truth" / "frame_times.txt"));
 
   // Same options and seed: the same bytes; --quiet prints nothing.
   const fs::path again = FreshPath("again") / "scan";
   const hw::test::CommandResult q = Heatwave(
       "synth --scene equipment-small --duration 0.2 --thermal-rate 60 "
-      "--perturb-rig --quiet --out " +
+      "--perturb-rig --no-jitter --no-drops --quiet --out " +
       again.string());
   ASSERT_EQ(q.exit_code, 0) << q.output;
   EXPECT_EQ(q.output, "");
