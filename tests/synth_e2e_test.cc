@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/atomic_file.h"
+#include "core/rig.h"
 #include "core/scan.h"
 #include "tests/support.h"
 
@@ -109,6 +110,8 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
       {"synth --session latency --perturb-rig" + out, "--perturb-rig"},
       {"synth --session intrinsics-thermal --duration 3" + out, "--duration"},
       {"synth --session tea-time" + out, "known: intrinsics-thermal"},
+      {"synth --session latency --rig-seed -1" + out, "--rig-seed"},
+      {"synth --session latency --image-scale 0.1" + out, "--image-scale"},
   };
   for (const auto& [args, needle] : cases) {
     const hw::test::CommandResult r = Heatwave(args);
@@ -125,6 +128,33 @@ TEST(SynthCli, RendersACalibrationSession) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
   EXPECT_GT(hw::core::Scan::Open(out).NumFrames(Stream::kThermal), 0);
+}
+
+
+// One rig family: a session and a scan of one unit (--rig-seed) at one image scale write
+// the same truth/rig.yaml and rig.yaml (--perturb-rig), but for the thermal block's scene
+// emissivity.
+TEST(SynthCli, SessionAndScanOfOneUnitShareTheirRigs) {
+  const fs::path session = FreshPath("unit-session"), scan = FreshPath("unit-scan");
+  ASSERT_EQ(Heatwave("synth --session latency --rig-seed 5 --duration 0.1 -q --out " +
+                     session.string())
+                .exit_code,
+            0);
+  ASSERT_EQ(Heatwave("synth --scene equipment-small --rig-seed 5 --perturb-rig --duration 0.1 "
+                     "--image-scale 0.5 -q --out " +
+                     scan.string())
+                .exit_code,
+            0);
+  const auto same_scene = [](const fs::path& file) {
+    hw::core::Rig rig = hw::core::ReadRig(file);
+    rig.thermal_settings->emissivity = 0.95;
+    rig.thermal_settings->reflected_c = 20;
+    return hw::core::FormatRig(rig);
+  };
+  for (const std::string name : {"truth/rig.yaml", "rig.yaml"}) {
+    EXPECT_EQ(same_scene(session / name), same_scene(scan / name)) << name;
+  }
+  EXPECT_NE(same_scene(session / "rig.yaml"), same_scene(session / "truth/rig.yaml"));
 }
 
 }  // namespace
