@@ -196,6 +196,7 @@ struct SynthArguments {
   std::optional<double> rgb_offset_s, thermal_offset_s;
   std::optional<double> scene_scale;
   std::optional<double> image_scale;
+  std::string mask_polarity = "hot";
   std::optional<int> rooms;
   bool perturb_rig = false;
   bool no_noise = false;
@@ -270,6 +271,10 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
     unit.image_scale = *args.image_scale;
     o.common().true_rig = fixtures::SynthRigOfUnit(unit);
   }
+  if (args.mask_polarity != "hot" && *kind != fixtures::CalibrationSessionKind::kThermalSquareGrid) {
+    throw UsageError("--mask-polarity: applies to session 'intrinsics-thermal' only");
+  }
+  o.thermal_square_grid.mask.plate_hotter = args.mask_polarity == "hot";
   if (args.thermal_format == "tiff")
     o.common().thermal_encoding = core::ThermalEncoding::kFloatTiff;
   ThrowIfInvalid(o.Check());
@@ -339,6 +344,11 @@ int RunSynth(int argc, char** argv) {
       ->check(CLI::IsMember({"raw", "tiff"}))
       ->capture_default_str();
   app.add_option("--scene-scale", args.scene_scale, "scale the scene's size by this factor");
+  app.add_option("--mask-polarity", args.mask_polarity,
+                 "session intrinsics-thermal: hot: the mask's plate hotter than the background "
+                 "behind its holes; cold: colder")
+      ->check(CLI::IsMember({"hot", "cold"}))
+      ->capture_default_str();
   app.add_option("--image-scale", args.image_scale,
                  "scale every camera's image size by this factor, (0, 1] (sessions [0.25, 1]); "
                  "default: the --size preset's (scans: small 0.125, full 1; sessions: small "
@@ -387,6 +397,7 @@ int RunSynth(int argc, char** argv) {
       }
       return RunSession(args, common);
     }
+    if (args.mask_polarity != "hot") throw UsageError("--mask-polarity: applies to --session only");
     if (args.rooms && args.scene != "large") {
       throw UsageError("--rooms: applies to the 'large' scene only, not '" + args.scene + "'");
     }
