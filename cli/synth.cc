@@ -73,14 +73,14 @@ std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, boo
   return folder;
 }
 
-// --seed: a whole number in [0, 2^64 - 1]. CLI11 reads "-1" as 2^64 - 1 and saturates
-// values beyond 2^64; both are refused here.
-uint64_t ParseSeed(const std::string& text) {
+// --seed, --rig-seed: a whole number in [0, 2^64 - 1]. CLI11 reads "-1" as 2^64 - 1 and
+// saturates values beyond 2^64; both are refused here.
+uint64_t ParseSeed(const std::string& text, const std::string& flag = "--seed") {
   uint64_t seed = 0;
   const char* last = text.data() + text.size();
   const auto [ptr, ec] = std::from_chars(text.data(), last, seed);
   if (text.empty() || ec != std::errc() || ptr != last) {
-    throw UsageError("--seed: must be a whole number from 0 to 18446744073709551615, got '" +
+    throw UsageError(flag + ": must be a whole number from 0 to 18446744073709551615, got '" +
                      text + "'");
   }
   return seed;
@@ -153,8 +153,9 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
                 s.motion.mean_rate_rad_per_s * 180 / std::numbers::pi,
                 s.motion.max_rate_rad_per_s * 180 / std::numbers::pi);
   out +=
-      core::StringPrintf("Rig        %s\n", o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
-                                              : "rig.yaml is the true rig");
+      core::StringPrintf("Rig        unit %llu; %s\n", static_cast<unsigned long long>(o.rig_seed),
+                         o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
+                                       : "rig.yaml is the true rig");
   out += core::StringPrintf(
       "Truth      groundtruth.txt (%d poses), truth/scene.ply (%d vertices, %d faces), "
       "truth/hotspots.yaml\n",
@@ -178,15 +179,17 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
   return out;
 }
 
-std::string FormatSessionSummary(const fixtures::SessionSummary& s, uint64_t seed, uint64_t bytes,
-                                 double seconds) {
+std::string FormatSessionSummary(const fixtures::SessionSummary& s, uint64_t seed,
+                                 uint64_t rig_seed, uint64_t bytes, double seconds) {
   std::string out;
   out += core::StringPrintf("Session    %s  (seed %llu)\n", fixtures::CalibrationSessionName(s.kind).c_str(),
                 static_cast<unsigned long long>(seed));
   out += core::StringPrintf("Folder     %s  (%s)\n", s.folder.string().c_str(), FormatBytes(bytes).c_str());
   out += core::StringPrintf("Frames     depth %d, rgb %d, thermal %d; %d FFC events; %.3f s\n", s.depth_frames,
                 s.rgb_frames, s.thermal_frames, s.ffc_events, s.duration_s);
-  out += "Rig        rig.yaml is the nominal rig; the true rig is truth/rig.yaml\n";
+  out += core::StringPrintf(
+      "Rig        unit %llu; rig.yaml is the nominal rig; the true rig is truth/rig.yaml\n",
+      static_cast<unsigned long long>(rig_seed));
   const int frames = s.depth_frames + s.rgb_frames + s.thermal_frames;
   out += core::StringPrintf("Done       %d frames in %s (%.1f frames/s)\n", frames,
                 core::ProgressBar::FormatDuration(seconds).c_str(),
@@ -201,6 +204,8 @@ struct SynthArguments {
   fs::path out;
   std::string seed_text = "1";  // parsed by ParseSeed
   uint64_t seed = 1;
+  std::string rig_seed_text = "0";  // parsed by ParseSeed
+  uint64_t rig_seed = 0;
   std::string size = "small";
   std::string trajectory = "smooth";
   std::string thermal_format = "raw";
@@ -210,6 +215,8 @@ struct SynthArguments {
   std::optional<double> depth_rate_hz, rgb_rate_hz, thermal_rate_hz;
   std::optional<double> rgb_offset_s, thermal_offset_s;
   std::optional<double> scene_scale;
+  std::optional<double> image_scale;
+  std::string mask_polarity = "hot";
   std::optional<int> rooms;
   bool perturb_rig = false;
   bool no_noise = false;
@@ -240,6 +247,7 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
     throw UsageError("--thermal-camera: unknown camera '" + args.thermal_camera + "'");
   }
   o.thermal.ffc_drop_frames = args.ffc_frames == "drop";
+  o.rig_seed = args.rig_seed;
   if (args.duration_s) o.duration_s = *args.duration_s;
   if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
   if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
@@ -247,6 +255,7 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   if (args.rgb_offset_s) o.rgb_time_offset_s = *args.rgb_offset_s;
   if (args.thermal_offset_s) o.thermal_time_offset_s = *args.thermal_offset_s;
   if (args.scene_scale) o.scene_options.scale = *args.scene_scale;
+  if (args.image_scale) o.image_scale = *args.image_scale;
   if (args.rooms) o.scene_options.rooms = *args.rooms;
   o.motion = *fixtures::ParseMotionKind(args.trajectory);
   o.thermal_encoding = args.thermal_format == "tiff" ? core::ThermalEncoding::kFloatTiff
@@ -281,7 +290,8 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
                      "' (known: " + Join(fixtures::CalibrationSessionNames()) + ")");
   }
   fixtures::CalibrationSessionOptions o =
-      fixtures::CalibrationSessionOptions::Preset(*kind, args.size == "small", args.seed);
+      fixtures::CalibrationSessionOptions::Preset(*kind, args.size == "small", args.seed,
+                                                  args.rig_seed);
   if (args.duration_s) {
     if (*kind == fixtures::CalibrationSessionKind::kTargetlessExtrinsics) {
       o.targetless.duration_s = *args.duration_s;
@@ -292,6 +302,21 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
                        "' (its length is its number of views)");
     }
   }
+  if (args.image_scale) {
+    // Views must still fit the target into the images: a quarter of the full size at least.
+    if (!(*args.image_scale >= 0.25 && *args.image_scale <= 1)) {
+      throw UsageError(core::StringPrintf(
+          "--image-scale: must be in [0.25, 1] for a session, got %g", *args.image_scale));
+    }
+    fixtures::RigUnitOptions unit;
+    unit.rig_seed = args.rig_seed;
+    unit.image_scale = *args.image_scale;
+    o.common().true_rig = fixtures::SynthRigOfUnit(unit);
+  }
+  if (args.mask_polarity != "hot" && *kind != fixtures::CalibrationSessionKind::kThermalSquareGrid) {
+    throw UsageError("--mask-polarity: applies to session 'intrinsics-thermal' only");
+  }
+  o.thermal_square_grid.mask.plate_hotter = args.mask_polarity == "hot";
   if (args.thermal_format == "tiff")
     o.common().thermal_encoding = core::ThermalEncoding::kFloatTiff;
   ThrowIfInvalid(o.Check());
@@ -306,7 +331,8 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (!common.quiet) {
-    std::cout << FormatSessionSummary(summary, args.seed, core::FolderSizeBytes(args.out), seconds)
+    std::cout << FormatSessionSummary(summary, args.seed, args.rig_seed,
+                                      core::FolderSizeBytes(args.out), seconds)
               << std::flush;
   }
   return kExitOk;
@@ -331,6 +357,11 @@ int RunSynth(int argc, char** argv) {
   scene->excludes(session);
   app.add_option("--out", args.out, "output scan folder (created)");
   app.add_option("--seed", args.seed_text, "seed of everything random, 0 to 2^64-1")
+      ->capture_default_str();
+  app.add_option("--rig-seed", args.rig_seed_text,
+                 "unit serial of the rig, 0 to 2^64-1: 0 is the reference unit, others vary "
+                 "from unit to unit; a session and a scan of one unit share truth/rig.yaml and "
+                 "rig.yaml (--perturb-rig)")
       ->capture_default_str();
   app.add_option("--size", args.size,
                  "small: tiny images and 1 s (tests); full: 640x480 depth and colour, 320x240 "
@@ -368,6 +399,15 @@ int RunSynth(int argc, char** argv) {
       ->check(CLI::IsMember({"raw", "tiff"}))
       ->capture_default_str();
   app.add_option("--scene-scale", args.scene_scale, "scale the scene's size by this factor");
+  app.add_option("--mask-polarity", args.mask_polarity,
+                 "session intrinsics-thermal: hot: the mask's plate hotter than the background "
+                 "behind its holes; cold: colder")
+      ->check(CLI::IsMember({"hot", "cold"}))
+      ->capture_default_str();
+  app.add_option("--image-scale", args.image_scale,
+                 "scale every camera's image size by this factor, (0, 1] (sessions [0.25, 1]); "
+                 "default: the --size preset's (scans: small 0.125, full 1; sessions: small "
+                 "0.5, full 1)");
   app.add_option("--rooms", args.rooms, "rooms of the 'large' scene");
   app.add_flag("--perturb-rig", args.perturb_rig,
                "write a deliberately wrong rig.yaml and the true one as truth/rig.yaml");
@@ -392,6 +432,7 @@ int RunSynth(int argc, char** argv) {
 
   return RunGuarded([&] {
     args.seed = ParseSeed(args.seed_text);
+    args.rig_seed = ParseSeed(args.rig_seed_text, "--rig-seed");
     if (args.list) {
       std::cout << "Scenes:   " << Join(fixtures::SceneNames()) << "\n"
                 << "Sessions: " << Join(fixtures::CalibrationSessionNames()) << "\n";
@@ -429,6 +470,7 @@ int RunSynth(int argc, char** argv) {
       }
       return RunSession(args, common);
     }
+    if (args.mask_polarity != "hot") throw UsageError("--mask-polarity: applies to --session only");
     if (args.rooms && args.scene != "large") {
       throw UsageError("--rooms: applies to the 'large' scene only, not '" + args.scene + "'");
     }

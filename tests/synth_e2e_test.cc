@@ -6,7 +6,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include <Eigen/Core>
+
 #include "core/atomic_file.h"
+#include "core/rig.h"
 #include "core/scan.h"
 #include "tests/support.h"
 
@@ -111,6 +116,10 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
       {"synth --session latency --perturb-rig" + out, "--perturb-rig"},
       {"synth --session intrinsics-thermal --duration 3" + out, "--duration"},
       {"synth --session tea-time" + out, "known: intrinsics-thermal"},
+      {"synth --session latency --rig-seed -1" + out, "--rig-seed"},
+      {"synth --session latency --image-scale 0.1" + out, "--image-scale"},
+      {"synth --session latency --mask-polarity cold" + out, "--mask-polarity"},
+      {"synth --scene equipment-small --mask-polarity cold" + out, "--mask-polarity"},
   };
   for (const auto& [args, needle] : cases) {
     const hw::test::CommandResult r = Heatwave(args);
@@ -121,12 +130,66 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
   EXPECT_FALSE(fs::exists(FreshPath("bad") / "rig.yaml"));
 }
 
+// Both polarities of the heated mask from the CLI: at the first hole's centre the camera
+// sees the background, on the bar right of it the plate; hot: the plate is the warmer.
+TEST(SynthCli, RendersBothMaskPolarities) {
+  for (const std::string polarity : {"hot", "cold"}) {
+    const fs::path out = FreshPath("mask-" + polarity);
+    const hw::test::CommandResult r =
+        Heatwave("synth --session intrinsics-thermal --mask-polarity " + polarity + " -q --out " +
+                 out.string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const hw::core::Scan scan = hw::core::Scan::Open(out);
+    const hw::core::Rig truth = hw::core::ReadRig(out / "truth" / "rig.yaml");
+    const hw::core::Target target = hw::core::ReadTarget(out / "target.yaml");
+    const double t = scan.Timestamp(Stream::kThermal, 0) + truth.thermal_time_offset_s;
+    const hw::core::Rigid3d thermal_from_target =
+        (scan.groundtruth()->At(t).value() * truth.depth_from_thermal).Inverse();
+    const double s = target.square_m, p = target.pitch_m;
+    const auto at = [&](double x, double y) {
+      const Eigen::Vector2d px = truth.thermal->Project(thermal_from_target * Eigen::Vector3d(x, y, 0));
+      return scan.LoadThermal(0).at<float>(static_cast<int>(std::lround(px.y())),
+                                           static_cast<int>(std::lround(px.x())));
+    };
+    const double hole_c = at(s / 2, s / 2), bar_c = at(s + (p - s) / 2, s / 2);
+    EXPECT_GT(std::abs(bar_c - hole_c), 10) << polarity;
+    EXPECT_EQ(bar_c > hole_c, polarity == "hot") << bar_c << " vs " << hole_c;
+  }
+}
+
 TEST(SynthCli, RendersACalibrationSession) {
   const fs::path out = FreshPath("session");
   const hw::test::CommandResult r = Heatwave("synth --session intrinsics-thermal -q --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "truth" / "rig.yaml"));
   EXPECT_GT(hw::core::Scan::Open(out).NumFrames(Stream::kThermal), 0);
+}
+
+
+// One rig family: a session and a scan of one unit (--rig-seed) at one image scale write
+// the same truth/rig.yaml and rig.yaml (--perturb-rig), but for the thermal block's scene
+// emissivity.
+TEST(SynthCli, SessionAndScanOfOneUnitShareTheirRigs) {
+  const fs::path session = FreshPath("unit-session"), scan = FreshPath("unit-scan");
+  ASSERT_EQ(Heatwave("synth --session latency --rig-seed 5 --duration 0.1 -q --out " +
+                     session.string())
+                .exit_code,
+            0);
+  ASSERT_EQ(Heatwave("synth --scene equipment-small --rig-seed 5 --perturb-rig --duration 0.1 "
+                     "--image-scale 0.5 -q --out " +
+                     scan.string())
+                .exit_code,
+            0);
+  const auto same_scene = [](const fs::path& file) {
+    hw::core::Rig rig = hw::core::ReadRig(file);
+    rig.thermal_settings->emissivity = 0.95;
+    rig.thermal_settings->reflected_c = 20;
+    return hw::core::FormatRig(rig);
+  };
+  for (const std::string name : {"truth/rig.yaml", "rig.yaml"}) {
+    EXPECT_EQ(same_scene(session / name), same_scene(scan / name)) << name;
+  }
+  EXPECT_NE(same_scene(session / "rig.yaml"), same_scene(session / "truth/rig.yaml"));
 }
 
 }  // namespace
