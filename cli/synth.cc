@@ -226,6 +226,9 @@ struct SynthArguments {
   bool no_drops = false;
   bool no_rolling_shutter = false;
   bool no_specular = false;
+  bool no_reflections = false;
+  bool no_depth_artefacts = false;
+  std::optional<double> reflected_error_k;
   bool no_shadows = false;
   bool no_auto_exposure = false;
   bool overwrite = false;
@@ -268,6 +271,14 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   if (args.no_drops) o.timing.drop_probability = o.timing.burst_probability = 0;
   if (args.no_rolling_shutter) o.colour.readout_s = 0;
   if (args.no_specular) o.colour.specular = false;
+  if (args.no_reflections) o.thermal.reflections = fixtures::ReflectionOptions::Uniform();
+  if (args.reflected_error_k) o.reflected_error_k = *args.reflected_error_k;
+  if (args.no_depth_artefacts) {
+    o.depth.noise_correlation_px = 0;
+    o.depth.distortion_radial_px = o.depth.distortion_pattern_px = 0;
+    o.depth.fattening_px = 0;
+    o.depth.material_response = false;
+  }
   if (args.no_shadows) o.colour.shadows = false;
   if (args.no_auto_exposure) o.auto_exposure.exposure = o.auto_exposure.white_balance = false;
   ThrowIfInvalid(o.Check());
@@ -421,6 +432,15 @@ int RunSynth(int argc, char** argv) {
   app.add_flag("--no-rolling-shutter", args.no_rolling_shutter,
                "global-shutter colour camera (default: rows read out over 27 ms)");
   app.add_flag("--no-specular", args.no_specular, "no highlights on glossy surfaces");
+  app.add_flag("--no-reflections", args.no_reflections,
+               "thermal: a uniform room in every reflection (default: mirror rays traced, "
+               "the operator's body behind the camera)");
+  app.add_option("--reflected-error", args.reflected_error_k,
+                 "bound of the error of rig.yaml's reflected_c, K, in [0, 50] (default 3; 0: "
+                 "the true value)");
+  app.add_flag("--no-depth-artefacts", args.no_depth_artefacts,
+               "depth noise i.i.d. and unbiased, all materials matte (default: correlated "
+               "noise, disparity distortion, edge fattening, glass/metal/dark dropouts)");
   app.add_flag("--no-shadows", args.no_shadows, "no cast shadows in colour frames");
   app.add_flag("--no-auto-exposure", args.no_auto_exposure,
                "fixed colour gains (default: auto exposure and white balance with a lag)");
@@ -463,6 +483,9 @@ int RunSynth(int argc, char** argv) {
           {args.no_drops, "--no-drops"},
           {args.no_rolling_shutter, "--no-rolling-shutter"},
           {args.no_specular, "--no-specular"},
+          {args.no_reflections, "--no-reflections"},
+          {args.reflected_error_k.has_value(), "--reflected-error"},
+          {args.no_depth_artefacts, "--no-depth-artefacts"},
           {args.no_shadows, "--no-shadows"},
           {args.no_auto_exposure, "--no-auto-exposure"}};
       for (const auto& [given, name] : scan_only) {
