@@ -10,8 +10,8 @@ bash scripts/build.sh
 heatwave=build/cli/heatwave
 out=build/demo/equipment
 echo
-echo "== heatwave synth: render the demo scan (640x480 depth + colour, 320x240 thermal, 2 s)"
-"$heatwave" synth --scene equipment --size full --duration 2 --seed 1 --out "$out" --overwrite
+echo "== heatwave synth: render the demo scan (640x480 depth + colour, 320x240 thermal, 1 s)"
+"$heatwave" synth --scene equipment --size full --duration 1 --seed 1 --out "$out" --overwrite
 echo
 echo "== heatwave scan-info: validate it, decoding every frame"
 "$heatwave" scan-info "$out" --check-frames
