@@ -152,19 +152,33 @@ std::string FormatScanSummary(const fixtures::SynthScanOptions& o,
                 s.motion.mean_speed_m_per_s, s.motion.max_speed_m_per_s,
                 s.motion.mean_rate_rad_per_s * 180 / std::numbers::pi,
                 s.motion.max_rate_rad_per_s * 180 / std::numbers::pi);
-  out +=
-      core::StringPrintf("Rig        unit %llu; %s\n", static_cast<unsigned long long>(o.rig_seed),
-                         o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
-                                       : "rig.yaml is the true rig");
+  const bool estimated_reflection = s.written_reflected_c != s.true_reflected_c;
+  const std::string rig_state =
+      o.perturb_rig ? "rig.yaml perturbed; the true rig is truth/rig.yaml"
+      : estimated_reflection
+          ? "rig.yaml is the true rig but for reflected_c; the true rig is truth/rig.yaml"
+          : "rig.yaml is the true rig";
+  out += core::StringPrintf("Rig        unit %llu; %s\n",
+                            static_cast<unsigned long long>(o.rig_seed), rig_state.c_str());
+  if (estimated_reflection) {
+    out += core::StringPrintf("           reflected_c %.2f °C written (an auditor's estimate), "
+                              "%.2f °C true\n",
+                              s.written_reflected_c, s.true_reflected_c);
+  }
   out += core::StringPrintf(
       "Truth      groundtruth.txt (%d poses), truth/scene.ply (%d vertices, %d faces), "
       "truth/hotspots.yaml\n",
-      s.depth_frames, s.mesh_vertices, s.mesh_faces);
+      s.depth_frames + s.rgb_frames + s.thermal_frames, s.mesh_vertices, s.mesh_faces);
   out += core::StringPrintf("Hotspots   %zu\n", s.hotspots.size());
   for (const fixtures::HotspotTruth& h : s.hotspots) {
-    out += core::StringPrintf("  %-22s %-4s %6.1f °C (%s %5.1f °C)  %9.5f m²  %6.3f x %6.3f m\n", h.id.c_str(),
-                  h.hot ? "hot" : "cold", h.temperature_c, h.hot ? ">=" : "<=", h.threshold_c,
-                  h.area_m2, h.length_m, h.width_m);
+    out += core::StringPrintf("  %-22s %-4s %6.1f °C (%s %5.1f °C)  %9.5f m²  %6.3f x %6.3f m",
+                              h.id.c_str(), h.hot ? "hot" : "cold", h.temperature_c,
+                              h.hot ? ">=" : "<=", h.threshold_c, h.area_m2, h.length_m,
+                              h.width_m);
+    if (h.observed_fraction) {
+      out += core::StringPrintf("  seen %3.0f %%", 100 * *h.observed_fraction);
+    }
+    out += "\n";
   }
   if (s.depth_pixels_out_of_range > 0 || s.thermal_pixels_saturated > 0) {
     out += core::StringPrintf(
