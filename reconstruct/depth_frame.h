@@ -1,0 +1,80 @@
+#pragma once
+
+// Preparing a depth frame for tracking and fusion: lens distortion removed once (everything
+// downstream is pinhole, camera_maps.h), edge noise removed, a bilateral filter (KinectFusion:
+// smooth the sensor's noise, keep depth edges), and a pyramid of point and normal maps.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "core/camera.h"
+#include "reconstruct/camera_maps.h"
+
+namespace hw::reconstruct {
+
+// Resamples images of a distorted camera into the pinhole camera with the same fx fy cx cy
+// and size (PinholeCamera::Of). Built once per camera (the map costs an undistortion per
+// pixel); applying it is a table lookup. For a pinhole camera it is the identity (no copy).
+class Undistorter {
+ public:
+  Undistorter() = default;
+  explicit Undistorter(const core::CameraModel& camera);
+  const PinholeCamera& pinhole() const { return pinhole_; }
+  bool is_identity() const { return identity_; }
+  // Depth (CV_32FC1 metres, 0 = none): nearest-neighbour, so that no depth is interpolated
+  // across an edge; z along the optical axis is unchanged by undistortion. Pinhole pixels
+  // whose ray falls outside the distorted image are 0.
+  cv::Mat UndistortDepth(const cv::Mat& depth_m) const;
+  // Colour (CV_8UC3): bilinear. Outside the distorted image: black.
+  cv::Mat UndistortColour(const cv::Mat& rgb) const;
+
+ private:
+  PinholeCamera pinhole_;
+  bool identity_ = true;
+  cv::Mat map_x_, map_y_;  // CV_32FC1: distorted-image pixel of each pinhole pixel
+};
+
+struct DepthFilterOptions {
+  double min_depth_m = 0.3;  // nearer pixels are dropped, m, >= 0
+  double max_depth_m = 4.0;  // farther pixels are dropped, m, > min_depth_m
+  // Bilateral filter (KinectFusion's, on valid pixels only; an invalid centre stays invalid).
+  int bilateral_radius_px = 2;         // window half-size, px, in [0, 10] (0: no filter)
+  double bilateral_sigma_px = 1.5;     // spatial sigma, px, > 0
+  double bilateral_sigma_depth_m = 0.03;  // range sigma at 1 m, m, > 0; grows as z² (the
+                                          // sensor's disparity noise)
+  // Flying pixels at depth edges (a real sensor's mixed pixels): a pixel whose 4-neighbour
+  // depth differs by more than this fraction of its own depth is dropped. In (0, 1]; 1 keeps all.
+  double edge_jump_fraction = 0.05;
+  int num_levels = 3;  // pyramid levels, each half the size of the previous, in [1, 5]
+  // Normals from neighbours at most this far (fraction of depth) from the centre, in (0, 1].
+  double normal_max_jump_fraction = 0.05;
+
+  std::string Check() const;
+};
+
+// One level of a depth pyramid, camera frame.
+struct DepthLevel {
+  PinholeCamera camera;
+  cv::Mat depth_m;  // CV_32FC1, filtered, 0 = none
+  PointMap map;     // points and normals in the camera frame
+};
+
+// A prepared depth frame: level 0 is full resolution.
+struct DepthPyramid {
+  cv::Mat raw_depth_m;  // undistorted, range-limited, unfiltered (what TSDF fusion takes)
+  std::vector<DepthLevel> levels;
+};
+
+// Builds the pyramid of an undistorted depth image (CV_32FC1 metres) seen by `camera`:
+// range limits and edge cleaning on raw_depth_m, the bilateral filter on level 0, each next
+// level a 2×2 block mean of the one above over pixels within 3 sigma of the block's first
+// valid pixel (KinectFusion's pyramid: it never averages across an edge), points by
+// unprojection and normals from the cross product of central differences. Asserts the image
+// type and size match the camera.
+DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
+                               const DepthFilterOptions& options);
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,95 @@
+#pragma once
+
+// Frame-to-model tracking: point-to-plane ICP of a depth pyramid against the model's raycast
+// (KinectFusion): projective data association with distance and normal-angle gates, Huber
+// weights, coarse to fine, and checks that tell a failed alignment from a good one.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/transform.h"
+#include "reconstruct/camera_maps.h"
+#include "reconstruct/depth_frame.h"
+
+namespace hw::reconstruct {
+
+struct IcpOptions {
+  // Iterations per pyramid level, finest (level 0) first; a level with 0 is skipped.
+  std::array<int, 3> iterations = {4, 5, 10};
+  // Association gates: a live point and the model point it projects onto pair up when they
+  // are at most max_distance_m apart and their normals within max_normal_angle_deg.
+  double max_distance_m = 0.05;       // m, > 0 (at the coarsest level; halves per finer level
+                                      // down to min_distance_m)
+  double min_distance_m = 0.01;       // m, in (0, max_distance_m]
+  double max_normal_angle_deg = 30;   // degrees, in (0, 90]
+  double huber_m = 0.01;              // Huber threshold of point-to-plane residuals, m, > 0
+  // Stop a level when the update is smaller than this (rad for rotation, m for translation).
+  double min_update_rad = 1e-5;
+  double min_update_m = 1e-5;
+  // Failure checks on the finest level used:
+  double min_inlier_fraction = 0.15;  // inliers / valid live points, in [0, 1]
+  int min_inliers = 300;              // absolute floor, >= 6
+  // Largest ratio of largest to smallest eigenvalue of the 6×6 normal matrix (after
+  // scaling rotation by a 1 m lever): above it the geometry does not constrain all six
+  // degrees of freedom (a flat wall, a corridor). > 1.
+  double max_condition = 1e5;
+  double max_residual_m = 0.02;       // RMS point-to-plane residual of inliers, m, > 0
+  // Largest plausible change from the predicted pose in one frame; a bigger jump is a
+  // failed alignment, not motion (a hand-held rig moves < 2 m/s, < 180°/s).
+  double max_jump_m = 0.10;           // m, > 0
+  double max_jump_deg = 10;           // degrees, > 0
+  // Photometric term (0: off): weight of intensity residuals against geometric ones, for
+  // geometry that does not constrain the pose (a flat wall). >= 0.
+  double photometric_weight = 0;
+  int num_threads = 0;  // 0: hardware concurrency
+
+  std::string Check() const;
+};
+
+// The model as ICP sees it: a raycast (world-frame points and normals, Raycast()) per
+// pyramid level, with the camera and pose it was cast from. Level 0 is the finest and matches
+// the size of the live pyramid's level 0 (or of the finest level ICP uses).
+struct ModelPyramid {
+  core::Rigid3d world_from_camera;  // where the raycast was taken from
+  std::vector<PinholeCamera> cameras;
+  std::vector<PointMap> maps;  // world frame
+};
+
+// Downsamples a raycast (level 0) into `num_levels` levels by taking one valid point per
+// 2×2 block (nearest to the block's mean depth) with its normal.
+ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
+                               const core::Rigid3d& world_from_camera, int num_levels);
+
+enum class IcpStatus {
+  kOk,
+  kTooFewInliers,    // fewer than min_inliers / min_inlier_fraction
+  kIllConditioned,   // condition above max_condition
+  kLargeResidual,    // inlier RMS above max_residual_m
+  kImplausibleJump,  // change from the initial pose above max_jump_m / max_jump_deg
+};
+std::string IcpStatusName(IcpStatus status);  // "ok", "too_few_inliers", ...
+
+struct IcpResult {
+  IcpStatus status = IcpStatus::kOk;
+  core::Rigid3d world_from_camera;  // the estimate (also returned when status is not ok)
+  int inliers = 0;                  // at the finest level used
+  int valid_points = 0;             // valid live points at that level
+  double residual_rms_m = 0;        // RMS point-to-plane residual of the inliers, m
+  double condition = 0;             // of the last normal matrix
+  int iterations = 0;               // total over levels
+  // The 6×6 normal matrix of the final iteration (tangent [rotation; translation]), whose
+  // inverse times residual_rms_m² approximates the pose covariance.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
+// Aligns the live pyramid (camera frame) to the model, starting at initial_world_from_camera
+// (the constant-velocity prediction). Per level, coarse to fine: each live point is moved to
+// the world by the current estimate, projected into the model camera (model.world_from_camera),
+// paired with the model point at that pixel when it passes the gates, and the pose updated
+// by a Gauss-Newton step of the Huber-weighted point-to-plane error (linearised rotation).
+// Never throws; failures are in status.
+IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
+                       const core::Rigid3d& initial_world_from_camera, const IcpOptions& options);
+
+}  // namespace hw::reconstruct

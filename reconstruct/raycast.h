@@ -1,0 +1,36 @@
+#pragma once
+
+// Raycasting the TSDF: the model surface as a camera at a given pose would see it, for
+// frame-to-model tracking (ICP against the fused model rather than the last noisy frame) and
+// for laying temperature onto the model.
+
+#include <string>
+
+#include "core/transform.h"
+#include "reconstruct/camera_maps.h"
+#include "reconstruct/tsdf_volume.h"
+
+namespace hw::reconstruct {
+
+struct RaycastOptions {
+  double min_depth_m = 0.3;  // rays start here (along the optical axis), m, >= 0
+  double max_depth_m = 4.0;  // ... and end here, m, > min_depth_m
+  // March step inside the truncation band, as a fraction of truncation_m, in (0, 1]. Rays
+  // skip absent blocks whole; inside allocated ones they step by max(sdf, this) · truncation.
+  double step_fraction = 0.5;
+  bool with_colour = false;  // also fill PointMap::colours (black where none)
+  int num_threads = 0;       // 0: hardware concurrency; coarse chunks as TsdfOptions
+
+  std::string Check() const;
+};
+
+// Casts one ray per pixel of `camera` placed at world_from_camera and returns, per pixel,
+// the first zero crossing from + to − of the trilinearly interpolated sdf (refined by linear
+// interpolation between the two samples around it) as a world point, the surface normal
+// there (TsdfVolume::NormalAt) and, with with_colour, its colour. Pixels whose ray meets no
+// surface, or meets one from behind (− to +), are invalid. A nearest-voxel raycast would bias
+// depth by up to half a voxel and make frame-to-model tracking drift: interpolation is required.
+PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
+                 const core::Rigid3d& world_from_camera, const RaycastOptions& options);
+
+}  // namespace hw::reconstruct
