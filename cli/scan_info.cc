@@ -15,49 +15,14 @@
 
 namespace hw::cli {
 
+using core::JsonArray;
+using core::JsonNumber;
+using core::JsonObject;
+
 namespace {
 
 // At most this many unloadable frames are listed in the text report.
 constexpr size_t kMaxListedProblems = 20;
-
-// The shortest text that reads back as the same double.
-std::string JsonNumber(double value) {
-  if (!std::isfinite(value)) return "null";
-  char buf[64];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), value);
-  assert(ec == std::errc());
-  return std::string(buf, end);
-}
-
-// "key": value pairs joined into an object.
-class JsonObject {
- public:
-  JsonObject& Add(const std::string& key, const std::string& raw_value) {
-    body_ += (body_.empty() ? "" : ", ") + core::JsonString(key) + ": " + raw_value;
-    return *this;
-  }
-  JsonObject& Number(const std::string& key, double value) { return Add(key, JsonNumber(value)); }
-  JsonObject& Int(const std::string& key, int64_t value) { return Add(key, std::to_string(value)); }
-  JsonObject& Bool(const std::string& key, bool value) {
-    return Add(key, value ? "true" : "false");
-  }
-  JsonObject& String(const std::string& key, const std::string& value) {
-    return Add(key, core::JsonString(value));
-  }
-  std::string str() const { return "{" + body_ + "}"; }
-
- private:
-  std::string body_;
-};
-
-std::string JsonArray(const std::vector<std::string>& items, const std::string& indent) {
-  if (items.empty()) return "[]";
-  std::string out = "[\n";
-  for (size_t i = 0; i < items.size(); ++i) {
-    out += indent + "  " + items[i] + (i + 1 < items.size() ? ",\n" : "\n");
-  }
-  return out + indent + "]";
-}
 
 }  // namespace
 

@@ -1,5 +1,9 @@
 #include "core/json.h"
 
+#include <cassert>
+#include <charconv>
+#include <cmath>
+
 #include "core/strings.h"
 
 namespace hw::core {
@@ -64,6 +68,23 @@ std::string JsonString(std::string_view s) {
   }
   out += '"';
   return out;
+}
+
+std::string JsonNumber(double value) {
+  if (!std::isfinite(value)) return "null";
+  char buf[64];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), value);
+  assert(ec == std::errc());
+  return std::string(buf, end);
+}
+
+std::string JsonArray(const std::vector<std::string>& items, const std::string& indent) {
+  if (items.empty()) return "[]";
+  std::string out = "[\n";
+  for (size_t i = 0; i < items.size(); ++i) {
+    out += indent + "  " + items[i] + (i + 1 < items.size() ? ",\n" : "\n");
+  }
+  return out + indent + "]";
 }
 
 }  // namespace hw::core

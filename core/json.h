@@ -1,7 +1,9 @@
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace hw::core {
 
@@ -16,5 +18,31 @@ namespace hw::core {
 //   becomes U+FFFD, one per byte. The name is then not byte-exact, but the report parses;
 //   the text reports print paths as they are.
 std::string JsonString(std::string_view s);
+
+// The shortest text that reads back as the same double; "null" for NaN and inf (JSON has
+// neither).
+std::string JsonNumber(double value);
+
+// "key": value pairs joined into one object, in insertion order. Keys go through JsonString.
+class JsonObject {
+ public:
+  JsonObject& Add(const std::string& key, const std::string& raw_value) {
+    body_ += (body_.empty() ? "" : ", ") + JsonString(key) + ": " + raw_value;
+    return *this;
+  }
+  JsonObject& Number(const std::string& key, double value) { return Add(key, JsonNumber(value)); }
+  JsonObject& Int(const std::string& key, int64_t value) { return Add(key, std::to_string(value)); }
+  JsonObject& Bool(const std::string& key, bool value) { return Add(key, value ? "true" : "false"); }
+  JsonObject& String(const std::string& key, const std::string& value) {
+    return Add(key, JsonString(value));
+  }
+  std::string str() const { return "{" + body_ + "}"; }
+
+ private:
+  std::string body_;
+};
+
+// Raw JSON values as an array, one per line indented by `indent` + 2 spaces ("[]" when empty).
+std::string JsonArray(const std::vector<std::string>& items, const std::string& indent = "");
 
 }  // namespace hw::core

@@ -1,6 +1,7 @@
 #include "core/json.h"
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -102,6 +103,22 @@ TEST(JsonString, OutputIsAlwaysStrictJson) {
       ASSERT_EQ(Count(JsonString(inner), kReplacement), Count(inner, kReplacement)) << a << " " << b;
     }
   }
+}
+
+TEST(JsonNumber, ShortestRoundTripAndNullForNonFinite) {
+  EXPECT_EQ(JsonNumber(0.1), "0.1");
+  EXPECT_EQ(JsonNumber(-2), "-2");
+  EXPECT_EQ(std::stod(JsonNumber(1.0 / 3)), 1.0 / 3);
+  EXPECT_EQ(JsonNumber(std::numeric_limits<double>::quiet_NaN()), "null");
+  EXPECT_EQ(JsonNumber(-std::numeric_limits<double>::infinity()), "null");
+}
+
+TEST(JsonObject, KeysEscapedInInsertionOrder) {
+  JsonObject o;
+  o.Int("n", 3).Bool("ok", true).String("p\"ath", "a\nb").Number("x", 0.5);
+  EXPECT_EQ(o.str(), R"({"n": 3, "ok": true, "p\"ath": "a\u000ab", "x": 0.5})");
+  EXPECT_EQ(JsonArray({}), "[]");
+  EXPECT_EQ(JsonArray({"1", "2"}), "[\n  1,\n  2\n]");
 }
 
 }  // namespace
