@@ -13,6 +13,7 @@ const std::vector<Command>& Commands() {
       {"version", RunVersion, "print the version"},
       {"scan-info", RunScanInfo, "validate a scan folder and summarise its streams"},
       {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
+      {"reconstruct", RunReconstruct, "track the depth stream and fuse a coloured 3D model"},
   };
   return commands;
 }

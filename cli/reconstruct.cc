@@ -1,0 +1,390 @@
+#include "cli/reconstruct.h"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <system_error>
+
+#include "cli/command.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/json.h"
+#include "core/output_folder.h"
+#include "core/ply.h"
+#include "core/progress.h"
+#include "core/scan.h"
+#include "core/strings.h"
+
+namespace hw::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using core::JsonArray;
+using core::JsonNumber;
+using core::JsonObject;
+using reconstruct::FrameRecord;
+using reconstruct::FrameStatus;
+
+// What a reconstruction folder holds: removed by --overwrite.
+const std::vector<std::string>& OutputEntries() {
+  static const std::vector<std::string> entries = {"trajectory.txt", "model.ply", "reconstruct.json"};
+  return entries;
+}
+
+constexpr double kTruncationVoxels = 4;
+
+// Model vertices farther than this from the true surface count as outliers, not errors.
+constexpr double kSurfaceSearchM = 0.05;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+std::string SettingsJson(const ReconstructCommandOptions& o) {
+  const auto& r = o.reconstruction;
+  JsonObject tsdf, depth, icp, raycast, mesh, all;
+  tsdf.Number("voxel_size_m", r.tsdf.voxel_size_m)
+      .Number("truncation_m", r.tsdf.truncation_m)
+      .Number("max_weight", r.tsdf.max_weight);
+  depth.Int("bilateral_radius_px", r.depth.bilateral_radius_px)
+      .Number("bilateral_sigma_px", r.depth.bilateral_sigma_px)
+      .Number("bilateral_sigma_depth_m", r.depth.bilateral_sigma_depth_m)
+      .Number("edge_jump_fraction", r.depth.edge_jump_fraction)
+      .Int("num_levels", r.depth.num_levels);
+  icp.Add("iterations", core::StringPrintf("[%d, %d, %d]", r.icp.iterations[0], r.icp.iterations[1],
+                                           r.icp.iterations[2]))
+      .Number("max_distance_m", r.icp.max_distance_m)
+      .Number("min_distance_m", r.icp.min_distance_m)
+      .Number("max_normal_angle_deg", r.icp.max_normal_angle_deg)
+      .Number("huber_m", r.icp.huber_m)
+      .Number("min_inlier_fraction", r.icp.min_inlier_fraction)
+      .Int("min_inliers", r.icp.min_inliers)
+      .Number("max_condition", r.icp.max_condition)
+      .Number("max_residual_m", r.icp.max_residual_m)
+      .Number("max_jump_m", r.icp.max_jump_m)
+      .Number("max_jump_deg", r.icp.max_jump_deg);
+  raycast.Number("step_fraction", r.raycast.step_fraction);
+  mesh.Number("min_weight", r.mesh.min_weight)
+      .Int("min_component_triangles", r.mesh.min_component_triangles)
+      .Number("min_component_area_fraction", r.mesh.min_component_area_fraction);
+  all.Number("min_depth_m", r.min_depth_m)
+      .Number("max_depth_m", r.max_depth_m)
+      .Bool("integrate_colour", r.integrate_colour)
+      .Number("min_valid_depth_fraction", r.min_valid_depth_fraction)
+      .Number("relocalisation_widening", r.relocalisation_widening)
+      .Int("num_threads", r.num_threads)
+      .Bool("start_at_groundtruth", o.scan.start_at_groundtruth)
+      .Int("first_frame", o.scan.first_frame)
+      .Int("max_frames", o.scan.max_frames)
+      .Add("tsdf", tsdf.str())
+      .Add("depth", depth.str())
+      .Add("icp", icp.str())
+      .Add("raycast", raycast.str())
+      .Add("mesh", mesh.str());
+  return all.str();
+}
+
+std::string FrameJson(const FrameRecord& f, int depth_index) {
+  JsonObject o;
+  o.Int("depth_frame", depth_index)
+      .Number("timestamp_s", f.timestamp_s)
+      .String("status", reconstruct::FrameStatusName(f.status))
+      .Bool("fused", f.fused)
+      .Bool("coloured", f.coloured)
+      .Number("valid_depth_fraction", f.valid_depth_fraction);
+  if (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered ||
+      f.status == FrameStatus::kLost) {
+    o.String("icp", reconstruct::IcpStatusName(f.icp_status))
+        .Int("inliers", f.inliers)
+        .Int("valid_points", f.valid_points)
+        .Number("residual_rms_m", f.residual_rms_m)
+        .Number("condition", f.condition)
+        .Int("iterations", f.iterations)
+        .Number("correction_m", f.correction_m)
+        .Number("correction_deg", f.correction_deg);
+  }
+  o.Number("prepare_ms", f.prepare_ms)
+      .Number("track_ms", f.track_ms)
+      .Number("integrate_ms", f.integrate_ms)
+      .Number("raycast_ms", f.raycast_ms);
+  return o.str();
+}
+
+std::string ErrorStatsJson(const reconstruct::ErrorStats& e) {
+  JsonObject o;
+  o.Number("rmse", e.rmse).Number("mean", e.mean).Number("median", e.median).Number("std", e.std)
+      .Number("min", e.min).Number("max", e.max).Int("count", e.count);
+  return o.str();
+}
+
+std::string ReportJson(const ReconstructCommandOptions& options, const core::Scan& scan,
+                       const ReconstructCommandResult& r,
+                       const reconstruct::Reconstruction& reconstruction,
+                       const reconstruct::ScanReconstruction& run) {
+  JsonObject summary, timings, memory, mesh, input;
+  input.String("scan", scan.folder().string())
+      .String("rig", scan.rig_path().string())
+      .Int("depth_frames", r.depth_frames);
+  summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
+      .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
+      .Int("coloured", r.coloured);
+  const double processed = std::max<size_t>(1, reconstruction.frames().size());
+  timings.Number("load_s", r.load_seconds)
+      .Number("process_s", r.process_seconds)
+      .Number("mesh_s", r.mesh_seconds)
+      .Number("total_s", r.total_seconds)
+      .Number("frames_per_s", processed / std::max(r.process_seconds, 1e-9))
+      .Number("mean_prepare_ms", r.prepare_ms)
+      .Number("mean_track_ms", r.track_ms)
+      .Number("mean_integrate_ms", r.integrate_ms)
+      .Number("mean_raycast_ms", r.raycast_ms);
+  memory.Int("peak_rss_bytes", static_cast<int64_t>(r.peak_rss_bytes))
+      .Int("volume_bytes", static_cast<int64_t>(r.volume_bytes))
+      .Int("blocks", static_cast<int64_t>(r.blocks));
+  mesh.Int("vertices", static_cast<int64_t>(r.vertices))
+      .Int("faces", static_cast<int64_t>(r.faces))
+      .Number("area_m2", r.area_m2)
+      .Int("components", r.mesh_stats.components)
+      .Int("components_removed", r.mesh_stats.components_removed)
+      .Int("triangles_removed", r.mesh_stats.triangles_removed);
+  std::vector<std::string> frames, warnings;
+  for (size_t i = 0; i < reconstruction.frames().size(); ++i) {
+    frames.push_back(FrameJson(reconstruction.frames()[i], run.depth_frame_index[i]));
+  }
+  for (const std::string& w : r.warnings) warnings.push_back(core::JsonString(w));
+  JsonObject all;
+  all.String("command", "heatwave reconstruct")
+      .Add("input", input.str())
+      .Add("settings", SettingsJson(options))
+      .Add("summary", summary.str())
+      .Add("timings", timings.str())
+      .Add("memory", memory.str())
+      .Add("mesh", mesh.str());
+  if (r.evaluation) {
+    JsonObject eval;
+    eval.Int("associated_pairs", r.evaluation->associated_pairs)
+        .Add("ate_m", ErrorStatsJson(r.evaluation->ate_m))
+        .Add("rpe_m", ErrorStatsJson(r.evaluation->rpe_m))
+        .Add("rpe_deg", ErrorStatsJson(r.evaluation->rpe_deg));
+    if (r.surface) {
+      JsonObject surface;
+      surface.Int("vertices", r.surface->points)
+          .Int("beyond_search", r.surface->beyond_search)
+          .Number("search_radius_m", kSurfaceSearchM)
+          .Number("median_m", r.surface->median_m)
+          .Number("mean_m", r.surface->mean_m)
+          .Number("rms_m", r.surface->rms_m)
+          .Number("p90_m", r.surface->p90_m)
+          .Number("max_m", r.surface->max_m);
+      eval.Add("surface_to_truth", surface.str());
+    }
+    all.Add("groundtruth_evaluation", eval.str());
+  }
+  all.Add("warnings", JsonArray(warnings, "  ")).Add("frames", JsonArray(frames, "  "));
+  return all.str() + "\n";
+}
+
+}  // namespace
+
+size_t PeakRssBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<size_t>(usage.ru_maxrss) * 1024;  // Linux: kilobytes
+}
+
+std::string ReconstructCommandOptions::Check() const {
+  if (scan_folder.empty()) return "scan: must be given";
+  if (out_folder.empty()) return "--out: must be given";
+  if (std::string m = reconstruction.Check(); !m.empty()) return m;
+  return scan.Check();
+}
+
+ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& options, bool quiet) {
+  assert(options.Check().empty());
+  const auto start = std::chrono::steady_clock::now();
+  core::ScanOptions scan_options;
+  scan_options.rig_path = options.rig_path;
+  const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
+
+  // The output folder only once the input opened: a bad scan leaves nothing behind.
+  std::error_code ec;
+  if (fs::exists(options.out_folder, ec) && !fs::is_directory(options.out_folder, ec)) {
+    throw core::OutputError(options.out_folder, "exists and is not a folder");
+  }
+  core::OutputFolder folder(options.out_folder, "heatwave reconstruct");
+  if (!folder.IsEmpty()) {
+    if (!options.overwrite) {
+      folder.Abandon();
+      throw UsageError("--out " + options.out_folder.string() +
+                       ": folder is not empty; pass --overwrite to replace the reconstruction in it");
+    }
+    folder.Remove(OutputEntries());
+  }
+
+  reconstruct::Reconstruction reconstruction(scan.rig(), options.reconstruction);
+  ReconstructCommandResult r;
+  r.out_folder = options.out_folder;
+  for (const std::string& w : scan.warnings()) r.warnings.push_back(w);
+  reconstruct::ScanReconstruction run;
+  {
+    std::unique_ptr<core::ProgressBar> bar;
+    run = reconstruct::ReconstructScan(scan, reconstruction, options.scan, [&](int done, int total) {
+      if (!bar) bar = std::make_unique<core::ProgressBar>("reconstruct", total, "frames", quiet);
+      bar->Set(done);
+    });
+  }
+  r.warnings.insert(r.warnings.end(), run.warnings.begin(), run.warnings.end());
+  r.load_seconds = run.load_seconds;
+  r.process_seconds = run.process_seconds;
+  r.missing = run.missing_frames;
+  r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames;
+  for (const FrameRecord& f : reconstruction.frames()) {
+    r.fused += f.fused;
+    r.coloured += f.coloured;
+    r.tracked += f.status == FrameStatus::kTracked;
+    r.recovered += f.status == FrameStatus::kRecovered;
+    r.lost += f.status == FrameStatus::kLost;
+    r.no_depth += f.status == FrameStatus::kNoDepth;
+    r.prepare_ms += f.prepare_ms;
+    r.track_ms += f.track_ms;
+    r.integrate_ms += f.integrate_ms;
+    r.raycast_ms += f.raycast_ms;
+  }
+  const double n = std::max<size_t>(1, reconstruction.frames().size());
+  r.prepare_ms /= n;
+  r.track_ms /= n;
+  r.integrate_ms /= n;
+  r.raycast_ms /= n;
+
+  const auto mesh_start = std::chrono::steady_clock::now();
+  const reconstruct::TriangleMesh mesh = reconstruction.ExtractMesh(&r.mesh_stats);
+  r.mesh_seconds = Seconds(mesh_start);
+  r.vertices = mesh.positions.size();
+  r.faces = mesh.faces.size();
+  r.area_m2 = mesh.AreaM2();
+  r.blocks = reconstruction.volume().NumBlocks();
+  r.volume_bytes = reconstruction.volume().MemoryBytes();
+
+  if (scan.groundtruth() && reconstruction.trajectory().size() >= 3) {
+    try {
+      r.evaluation = reconstruct::EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(),
+                                                     reconstruct::TrajectoryEvalOptions{});
+    } catch (const std::invalid_argument& e) {
+      r.warnings.push_back(std::string("groundtruth evaluation skipped: ") + e.what());
+    }
+  }
+
+  // Synthetic scans carry their true surface: measure the model against it.
+  const fs::path truth_mesh = scan.folder() / "truth" / "scene.ply";
+  if (r.evaluation && core::ProbePath(truth_mesh).kind == core::PathKind::kRegularFile) {
+    const core::PlyMesh truth = core::ReadPly(truth_mesh);
+    std::vector<Eigen::Vector3d> points;
+    points.reserve(mesh.positions.size());
+    for (const Eigen::Vector3f& p : mesh.positions) {
+      points.push_back(r.evaluation->groundtruth_from_estimate * p.cast<double>());
+    }
+    r.surface = reconstruct::SummarizeDistances(
+        reconstruct::PointToMeshDistances(points, truth.Positions(), truth.faces, kSurfaceSearchM));
+  }
+
+  core::PlyMesh ply = reconstruct::ToPly(mesh);
+  ply.comments.push_back("heatwave reconstruct: world frame, metres");
+  core::WriteTumTrajectory(options.out_folder / "trajectory.txt", reconstruction.trajectory());
+  core::WritePly(options.out_folder / "model.ply", ply);
+  r.peak_rss_bytes = PeakRssBytes();
+  r.total_seconds = Seconds(start);
+  core::WriteFileAtomically(options.out_folder / "reconstruct.json",
+                            ReportJson(options, scan, r, reconstruction, run));
+  folder.Commit();
+  return r;
+}
+
+std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
+  std::string out;
+  out += core::StringPrintf("Frames     %d depth frames: %d fused (%d tracked, %d recovered), %d lost, "
+                            "%d without depth, %d missing; %d coloured\n",
+                            r.depth_frames, r.fused, r.tracked, r.recovered, r.lost, r.no_depth,
+                            r.missing, r.coloured);
+  const int processed = r.depth_frames - r.missing;
+  out += core::StringPrintf("Speed      %.1f frames/s processing (%.1f ms/frame: prepare %.1f, track %.1f, "
+                            "integrate %.1f, raycast %.1f); decoding %.1f s\n",
+                            processed / std::max(r.process_seconds, 1e-9),
+                            1000 * r.process_seconds / std::max(processed, 1), r.prepare_ms,
+                            r.track_ms, r.integrate_ms, r.raycast_ms, r.load_seconds);
+  out += core::StringPrintf("Model      %zu vertices, %zu triangles, %.3f m2; %d fragments removed "
+                            "(%d triangles); meshing %.2f s\n",
+                            r.vertices, r.faces, r.area_m2, r.mesh_stats.components_removed,
+                            r.mesh_stats.triangles_removed, r.mesh_seconds);
+  out += core::StringPrintf("Memory     %zu blocks, volume %.1f MB, peak %.1f MB\n", r.blocks,
+                            r.volume_bytes / 1e6, r.peak_rss_bytes / 1e6);
+  if (r.evaluation) {
+    out += core::StringPrintf("Accuracy   against groundtruth.txt: ATE RMSE %.2f mm (max %.2f mm), "
+                              "RPE %.2f mm / %.3f deg per %s\n",
+                              1000 * r.evaluation->ate_m.rmse, 1000 * r.evaluation->ate_m.max,
+                              1000 * r.evaluation->rpe_m.rmse, r.evaluation->rpe_deg.rmse, "1 s");
+  }
+  if (r.surface) {
+    out += core::StringPrintf("Surface    model to truth/scene.ply: median %.2f mm, 90%% %.2f mm, "
+                              "%d of %d vertices beyond %.0f mm\n",
+                              1000 * r.surface->median_m, 1000 * r.surface->p90_m,
+                              r.surface->beyond_search, r.surface->points, 1000 * kSurfaceSearchM);
+  }
+  constexpr size_t kMaxListed = 8;
+  if (!r.warnings.empty()) {
+    out += core::StringPrintf("Warnings   %zu (all in reconstruct.json)\n", r.warnings.size());
+    for (size_t i = 0; i < std::min(kMaxListed, r.warnings.size()); ++i) {
+      out += "  " + r.warnings[i] + "\n";
+    }
+    if (r.warnings.size() > kMaxListed) out += core::StringPrintf("  ... %zu more\n", r.warnings.size() - kMaxListed);
+  }
+  out += core::StringPrintf("Wrote      %s/{trajectory.txt, model.ply, reconstruct.json} in %.1f s\n",
+                            r.out_folder.c_str(), r.total_seconds);
+  return out;
+}
+
+int RunReconstruct(int argc, char** argv) {
+  CLI::App app("Track the depth stream and fuse it into a coloured 3D model (KinectFusion on the CPU).",
+               "heatwave reconstruct");
+  ReconstructCommandOptions o;
+  CommonOptions common;
+  AddCommonOptions(app, common);
+  auto& r = o.reconstruction;
+  app.add_option("scan", o.scan_folder, "scan folder (or TUM RGB-D sequence with --rig)")->required();
+  app.add_option("--out", o.out_folder, "output folder: trajectory.txt, model.ply, reconstruct.json")
+      ->required();
+  app.add_option("--rig", o.rig_path, "rig.yaml to use instead of the scan's (TUM sequences)");
+  app.add_flag("--overwrite", o.overwrite, "replace the reconstruction files in a non-empty --out");
+  app.add_option("--voxel-size", r.tsdf.voxel_size_m, "TSDF voxel side, m")->capture_default_str();
+  std::optional<double> truncation_m;
+  app.add_option("--truncation", truncation_m, "TSDF truncation distance, m; default: 4 voxels");
+  app.add_option("--max-weight", r.tsdf.max_weight, "TSDF weight cap, frames")->capture_default_str();
+  app.add_option("--min-depth", r.min_depth_m, "nearest depth used, m")->capture_default_str();
+  app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();
+  bool no_colour = false;
+  app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
+  app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
+                 "remove mesh fragments with fewer triangles")->capture_default_str();
+  app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();
+  app.add_flag("--start-at-groundtruth", o.scan.start_at_groundtruth,
+               "place the first frame at its groundtruth.txt pose (model in the scan's world frame)");
+  app.add_option("--first-frame", o.scan.first_frame, "first depth frame to use")->capture_default_str();
+  app.add_option("--max-frames", o.scan.max_frames, "number of depth frames to use, 0 = all")
+      ->capture_default_str();
+  if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  r.integrate_colour = !no_colour;
+  // Truncation follows the voxel: 4 voxels keeps the band about as wide as the sensor's noise
+  // at the default size, and a coarser volume still has voxels on both sides of a surface.
+  r.tsdf.truncation_m = truncation_m.value_or(kTruncationVoxels * r.tsdf.voxel_size_m);
+  return RunGuarded([&] {
+    ThrowIfInvalid(o.Check());
+    const ReconstructCommandResult result = RunReconstruction(o, common.quiet);
+    if (!common.quiet) std::cout << FormatReconstructSummary(result) << std::flush;
+    return kExitOk;
+  });
+}
+
+}  // namespace hw::cli

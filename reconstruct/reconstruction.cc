@@ -1,0 +1,326 @@
+#include "reconstruct/reconstruction.h"
+
+#include <algorithm>
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "core/error.h"
+#include "core/strings.h"
+#include "reconstruct/option_check.h"
+
+namespace hw::reconstruct {
+
+using internal::Fail;
+using internal::InRange;
+
+namespace {
+
+// The stage options with the pipeline-wide depth range and thread count applied.
+ReconstructionOptions Effective(ReconstructionOptions o) {
+  o.tsdf.min_depth_m = o.depth.min_depth_m = o.raycast.min_depth_m = o.min_depth_m;
+  o.tsdf.max_depth_m = o.depth.max_depth_m = o.raycast.max_depth_m = o.max_depth_m;
+  o.tsdf.num_threads = o.depth.num_threads = o.icp.num_threads = o.raycast.num_threads =
+      o.mesh.num_threads = o.num_threads;
+  return o;
+}
+
+double Ms(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+}  // namespace
+
+std::string FrameStatusName(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::kInitialised: return "initialised";
+    case FrameStatus::kTracked: return "tracked";
+    case FrameStatus::kRecovered: return "recovered";
+    case FrameStatus::kLost: return "lost";
+    case FrameStatus::kNoDepth: return "no_depth";
+  }
+  return "?";
+}
+
+std::string ReconstructionOptions::Check() const {
+  if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) return Fail("min_depth_m", min_depth_m, ">= 0 m");
+  if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
+    return Fail("max_depth_m", max_depth_m, "finite and > min_depth_m");
+  }
+  if (!InRange(min_valid_depth_fraction, 0, 1)) {
+    return Fail("min_valid_depth_fraction", min_valid_depth_fraction, "in [0, 1]");
+  }
+  if (!(relocalisation_widening >= 1) || !std::isfinite(relocalisation_widening)) {
+    return Fail("relocalisation_widening", relocalisation_widening, ">= 1");
+  }
+  if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
+  const ReconstructionOptions e = Effective(*this);
+  if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
+  if (std::string m = e.depth.Check(); !m.empty()) return "depth." + m;
+  if (std::string m = e.icp.Check(); !m.empty()) return "icp." + m;
+  if (std::string m = e.raycast.Check(); !m.empty()) return "raycast." + m;
+  if (std::string m = e.mesh.Check(); !m.empty()) return "mesh." + m;
+  return "";
+}
+
+std::string ScanReconstructionOptions::Check() const {
+  if (first_frame < 0) return Fail("first_frame", first_frame, ">= 0");
+  if (max_frames < 0) return Fail("max_frames", max_frames, ">= 0 (0: all)");
+  return "";
+}
+
+Reconstruction::Reconstruction(const core::Rig& rig, const ReconstructionOptions& options)
+    : rig_(rig),
+      options_(Effective(options)),
+      depth_undistorter_(rig.depth),
+      volume_(options_.tsdf) {
+  assert(options.Check().empty());
+  assert(rig.Check().empty());
+  if (rig_.rgb) rgb_undistorter_ = Undistorter(*rig_.rgb);
+}
+
+void Reconstruction::SetInitialPose(const core::Rigid3d& world_from_depth) {
+  assert(trajectory_.empty());
+  initial_pose_ = world_from_depth;
+}
+
+core::Rigid3d Reconstruction::PoseAt(double timestamp_s) const {
+  assert(!trajectory_.empty());
+  const auto& poses = trajectory_.poses();
+  const core::TimedPose& b = poses.back();
+  if (poses.size() < 2) return b.world_from_sensor;
+  const core::TimedPose& a = poses[poses.size() - 2];
+  const double s = (timestamp_s - a.timestamp_s) / (b.timestamp_s - a.timestamp_s);
+  return core::Interpolate(a.world_from_sensor, b.world_from_sensor, s);
+}
+
+const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
+  if (frame.depth_m.type() != CV_32FC1 || frame.depth_m.cols != rig_.depth.width ||
+      frame.depth_m.rows != rig_.depth.height) {
+    throw std::invalid_argument(core::StringPrintf(
+        "depth frame at %.6f s: expected a %dx%d CV_32FC1 image in metres, got %dx%d type %d",
+        frame.timestamp_s, rig_.depth.width, rig_.depth.height, frame.depth_m.cols,
+        frame.depth_m.rows, frame.depth_m.type()));
+  }
+  if (!frame.rgb.empty() && rig_.rgb &&
+      (frame.rgb.type() != CV_8UC3 || frame.rgb.cols != rig_.rgb->width ||
+       frame.rgb.rows != rig_.rgb->height)) {
+    throw std::invalid_argument(core::StringPrintf(
+        "rgb frame at %.6f s: expected a %dx%d CV_8UC3 image, got %dx%d type %d",
+        frame.rgb_timestamp_s, rig_.rgb->width, rig_.rgb->height, frame.rgb.cols,
+        frame.rgb.rows, frame.rgb.type()));
+  }
+  if (!(frame.timestamp_s > last_timestamp_s_) || !std::isfinite(frame.timestamp_s)) {
+    throw std::invalid_argument(core::StringPrintf(
+        "depth frame at %.6f s: timestamps must increase (previous %.6f s)", frame.timestamp_s,
+        last_timestamp_s_));
+  }
+  last_timestamp_s_ = frame.timestamp_s;
+
+  FrameRecord record;
+  record.index = static_cast<int>(frames_.size());
+  record.timestamp_s = frame.timestamp_s;
+
+  auto start = std::chrono::steady_clock::now();
+  cv::Mat depth_m = frame.depth_m;
+  if (cv::checkRange(depth_m, true) == false) {
+    // NaN / inf pixels are missing measurements, not numbers to fuse.
+    depth_m = frame.depth_m.clone();
+    depth_m.forEach<float>([](float& d, const int*) {
+      if (!std::isfinite(d)) d = 0;
+    });
+  }
+  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(depth_m);
+  const DepthPyramid pyramid =
+      BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(), options_.depth);
+  record.valid_depth_fraction =
+      static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
+  record.prepare_ms = Ms(start);
+
+  if (record.valid_depth_fraction < options_.min_valid_depth_fraction ||
+      record.valid_depth_fraction == 0) {
+    record.status = FrameStatus::kNoDepth;
+    frames_.push_back(record);
+    return frames_.back();
+  }
+
+  core::Rigid3d world_from_depth;
+  if (trajectory_.empty()) {
+    world_from_depth = initial_pose_.value_or(core::Rigid3d::Identity());
+    record.status = FrameStatus::kInitialised;
+  } else {
+    start = std::chrono::steady_clock::now();
+    const bool was_lost = lost_;
+    const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
+    record.track_ms = Ms(start);
+    if (!ok) {
+      lost_ = true;
+      record.status = FrameStatus::kLost;
+      frames_.push_back(record);
+      return frames_.back();
+    }
+    lost_ = false;
+    record.status = was_lost ? FrameStatus::kRecovered : FrameStatus::kTracked;
+  }
+  trajectory_.Add(frame.timestamp_s, world_from_depth);
+  record.fused = true;
+  Integrate(pyramid, frame, world_from_depth, record);
+  UpdateModel(world_from_depth, record);
+  frames_.push_back(record);
+  return frames_.back();
+}
+
+bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
+                           core::Rigid3d& world_from_depth) {
+  assert(model_.has_value());
+  const core::Rigid3d last = trajectory_.poses().back().world_from_sensor;
+  // Candidates, in order: constant velocity (the normal case), then the last pose itself —
+  // a hand-held rig that stops or turns abruptly breaks the constant-velocity guess.
+  std::vector<core::Rigid3d> starts;
+  if (!lost_) starts.push_back(PoseAt(timestamp_s));
+  starts.push_back(last);
+
+  IcpOptions icp = options_.icp;
+  if (lost_) {
+    // Relocalisation: the rig has moved for a while unobserved. Widen the gates and let the
+    // allowed jump grow with the time since the last fused frame, at the nominal frame rate.
+    const auto& poses = trajectory_.poses();
+    const double period_s =
+        poses.size() >= 2 ? poses.back().timestamp_s - poses[poses.size() - 2].timestamp_s : 1.0 / 30;
+    const double frames_elapsed =
+        std::max(1.0, (timestamp_s - poses.back().timestamp_s) / std::max(period_s, 1e-3));
+    const double w = options_.relocalisation_widening;
+    icp.max_distance_m *= w;
+    icp.max_jump_m *= w * frames_elapsed;
+    icp.max_jump_deg = std::min(180.0, icp.max_jump_deg * w * frames_elapsed);
+  }
+
+  IcpResult best;
+  bool ok = false;
+  for (const core::Rigid3d& initial : starts) {
+    const IcpResult result = AlignToModel(pyramid, *model_, initial, icp);
+    if (result.status == IcpStatus::kOk) {
+      best = result;
+      ok = true;
+      break;
+    }
+    if (&initial == &starts.front()) best = result;  // report the first attempt's failure
+  }
+  record.icp_status = best.status;
+  record.inliers = best.inliers;
+  record.valid_points = best.valid_points;
+  record.residual_rms_m = best.residual_rms_m;
+  record.condition = best.condition;
+  record.iterations = best.iterations;
+  const core::PoseError correction = core::ComparePoses(starts.front(), best.world_from_camera);
+  record.correction_m = correction.translation_m;
+  record.correction_deg = correction.rotation_rad * kRadToDeg;
+  if (ok) world_from_depth = best.world_from_camera;
+  return ok;
+}
+
+void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& frame,
+                               const core::Rigid3d& world_from_depth, FrameRecord& record) {
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<ColourView> colour;
+  if (options_.integrate_colour && rig_.rgb && !frame.rgb.empty()) {
+    colour.emplace();
+    colour->rgb = rgb_undistorter_.UndistortColour(frame.rgb);
+    colour->camera = rgb_undistorter_.pinhole();
+    // The colour camera's pose at its own exposure time: interpolated between the last two
+    // fused depth poses (this frame's included), extrapolated just beyond them.
+    colour->world_from_camera = PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
+    record.coloured = true;
+  }
+  volume_.Integrate(pyramid.raw_depth_m, depth_undistorter_.pinhole(), world_from_depth,
+                    colour ? &*colour : nullptr);
+  record.integrate_ms = Ms(start);
+}
+
+void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record) {
+  const auto start = std::chrono::steady_clock::now();
+  const PinholeCamera& camera = depth_undistorter_.pinhole();
+  PointMap level0 = Raycast(volume_, camera, world_from_depth, options_.raycast);
+  model_ = BuildModelPyramid(std::move(level0), camera, world_from_depth,
+                             static_cast<int>(options_.icp.iterations.size()));
+  record.raycast_ms = Ms(start);
+}
+
+TriangleMesh Reconstruction::ExtractMesh(MeshStats* stats) const {
+  return reconstruct::ExtractMesh(volume_, options_.mesh, stats);
+}
+
+ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
+                                   const ScanReconstructionOptions& options,
+                                   const std::function<void(int, int)>& frame_done) {
+  assert(options.Check().empty());
+  using core::Stream;
+  ScanReconstruction out;
+  const int n = scan.NumFrames(Stream::kDepth);
+  const int first = std::min(options.first_frame, n);
+  const int last = options.max_frames > 0 ? std::min(n, first + options.max_frames) : n;
+  const bool use_rgb = reconstruction.options().integrate_colour && scan.rig().rgb &&
+                       scan.NumFrames(Stream::kRgb) > 0;
+  for (int i = first; i < last; ++i) {
+    const double t = scan.Timestamp(Stream::kDepth, i);
+    if (!scan.FrameExists(Stream::kDepth, i)) {
+      ++out.missing_frames;
+      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: %s is missing, skipped",
+                                                i, t, scan.FramePath(Stream::kDepth, i).c_str()));
+      if (frame_done) frame_done(i - first + 1, last - first);
+      continue;
+    }
+    auto load_start = std::chrono::steady_clock::now();
+    FrameInput frame;
+    frame.timestamp_s = t;
+    frame.depth_m = scan.LoadDepth(i);
+    if (use_rgb) {
+      const std::optional<int> j = scan.AssociatedFrame(i, Stream::kRgb);
+      if (j && scan.FrameExists(Stream::kRgb, *j)) {
+        frame.rgb = scan.LoadRgb(*j);
+        frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
+      }
+    }
+    out.load_seconds += Ms(load_start) / 1000;
+
+    if (options.start_at_groundtruth && reconstruction.trajectory().empty()) {
+      const std::optional<core::Rigid3d> gt =
+          scan.groundtruth() ? scan.groundtruth()->At(t) : std::nullopt;
+      if (!gt) {
+        throw std::invalid_argument(core::StringPrintf(
+            "start at groundtruth: %s has no pose at %.6f s (depth frame %d)",
+            scan.groundtruth() ? "groundtruth.txt" : "the scan has no groundtruth.txt, so it", t, i));
+      }
+      reconstruction.SetInitialPose(*gt);
+    }
+    const auto process_start = std::chrono::steady_clock::now();
+    const FrameRecord& record = reconstruction.AddFrame(frame);
+    out.process_seconds += Ms(process_start) / 1000;
+    out.depth_frame_index.push_back(i);
+    if (record.status == FrameStatus::kLost) {
+      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking lost (%s), not fused",
+                                                i, t, IcpStatusName(record.icp_status).c_str()));
+    } else if (record.status == FrameStatus::kRecovered) {
+      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking recovered", i, t));
+    } else if (record.status == FrameStatus::kNoDepth) {
+      out.warnings.push_back(core::StringPrintf(
+          "depth frame %d at %.6f s: only %.1f %% of pixels have depth, skipped", i, t,
+          100 * record.valid_depth_fraction));
+    }
+    if (frame_done) frame_done(i - first + 1, last - first);
+  }
+  if (reconstruction.trajectory().empty()) {
+    throw core::InputError(scan.IndexPath(Stream::kDepth),
+                           core::StringPrintf("no usable depth: none of the %d depth frames used has "
+                                              "valid depth on %.0f %% of its pixels",
+                                              last - first,
+                                              100 * reconstruction.options().min_valid_depth_fraction));
+  }
+  return out;
+}
+
+}  // namespace hw::reconstruct

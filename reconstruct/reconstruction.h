@@ -1,0 +1,171 @@
+#pragma once
+
+// The dense reconstruction pipeline (KinectFusion on the CPU): each depth frame is
+// undistorted and filtered, tracked frame-to-model by ICP against a raycast of the fused
+// volume, then fused into the sparse TSDF (with colour from the rgb stream at its own time),
+// and the volume raycast again for the next frame. A frame whose tracking fails is reported,
+// not fused, and later frames relocalise against the model.
+//
+// Fed frame by frame (live capture) through AddFrame, or over a whole scan folder by
+// ReconstructScan. The volume and trajectory are what thermal fusion and analysis build on.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "core/rig.h"
+#include "core/scan.h"
+#include "core/trajectory.h"
+#include "reconstruct/depth_frame.h"
+#include "reconstruct/icp.h"
+#include "reconstruct/marching_cubes.h"
+#include "reconstruct/raycast.h"
+#include "reconstruct/tsdf_volume.h"
+
+namespace hw::reconstruct {
+
+struct ReconstructionOptions {
+  // Depth range fused and tracked, m: these override the ranges of `tsdf`, `depth` and
+  // `raycast` (one range for the whole pipeline). Structured-light and ToF sensors measure
+  // from ~0.4 m to 4–5 m; farther depth is noisier than the model needs.
+  double min_depth_m = 0.3;  // >= 0
+  double max_depth_m = 5.0;  // > min_depth_m
+  TsdfOptions tsdf;
+  DepthFilterOptions depth;
+  IcpOptions icp;
+  RaycastOptions raycast;
+  MeshOptions mesh;
+  // Paint the model with the rgb stream (when the rig has one and frames are given).
+  bool integrate_colour = true;
+  // Frames with fewer valid depth pixels than this fraction of the image are not used
+  // (a covered lens, a sensor glitch). In [0, 1].
+  double min_valid_depth_fraction = 0.05;
+  // After a tracking failure, frames are aligned from the last tracked pose with the
+  // association gates and jump limits widened by this factor, until one succeeds. >= 1.
+  double relocalisation_widening = 2.0;
+  // Threads of every stage (0: hardware concurrency); overrides the stages' own.
+  int num_threads = 0;
+
+  // "" when valid, else a message naming the field (with its stage, e.g.
+  // "tsdf.voxel_size_m: ..."), value and constraint.
+  std::string Check() const;
+};
+
+// One depth frame given to the pipeline.
+struct FrameInput {
+  double timestamp_s = 0;  // depth clock, s; strictly after the previous frame's
+  cv::Mat depth_m;         // CV_32FC1 metres as the depth camera saw it (distorted), 0 = none
+  cv::Mat rgb;             // empty, or CV_8UC3 RGB of the rig's rgb camera
+  double rgb_timestamp_s = 0;  // rgb exposure time on the depth clock, s
+};
+
+enum class FrameStatus {
+  kInitialised,  // first usable frame: defines the world frame (or initial_world_from_depth)
+  kTracked,      // ICP succeeded; fused
+  kRecovered,    // first success after lost frames (relocalised against the model); fused
+  kLost,         // ICP failed; not fused, no pose
+  kNoDepth,      // too few valid depth pixels; not used, no pose
+};
+std::string FrameStatusName(FrameStatus status);  // "initialised", "tracked", ...
+
+// What the pipeline did with one frame.
+struct FrameRecord {
+  int index = 0;            // order of arrival
+  double timestamp_s = 0;   // depth clock, s
+  FrameStatus status = FrameStatus::kNoDepth;
+  bool fused = false;
+  bool coloured = false;    // an rgb frame was fused with it
+  double valid_depth_fraction = 0;
+  IcpStatus icp_status = IcpStatus::kOk;  // of the last attempt (tracked / lost frames)
+  int inliers = 0, valid_points = 0;
+  double residual_rms_m = 0, condition = 0;
+  int iterations = 0;
+  // Change from the constant-velocity prediction to the estimate.
+  double correction_m = 0, correction_deg = 0;
+  // Wall time of each stage, ms.
+  double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
+};
+
+class Reconstruction {
+ public:
+  // Asserts options.Check() is empty and rig.Check() is empty.
+  Reconstruction(const core::Rig& rig, const ReconstructionOptions& options);
+
+  // The pose of the first usable frame (default identity: the world frame is that frame's
+  // depth camera). Set before the first AddFrame.
+  void SetInitialPose(const core::Rigid3d& world_from_depth);
+
+  // Processes one frame. Throws std::invalid_argument when depth_m is not CV_32FC1 of the
+  // rig's depth size, rgb (when given) not CV_8UC3 of the rgb size, or timestamps do not
+  // increase. Non-finite depth pixels count as missing.
+  const FrameRecord& AddFrame(const FrameInput& frame);
+
+  const TsdfVolume& volume() const { return volume_; }
+  // world_from_depth at every fused frame (tracked, recovered, initialised), depth clock.
+  const core::Trajectory& trajectory() const { return trajectory_; }
+  const std::vector<FrameRecord>& frames() const { return frames_; }
+  const core::Rig& rig() const { return rig_; }
+  const ReconstructionOptions& options() const { return options_; }
+  // True while the last frame was lost (no model view to track against is current).
+  bool lost() const { return lost_; }
+
+  // Marching cubes of the volume (options().mesh).
+  TriangleMesh ExtractMesh(MeshStats* stats = nullptr) const;
+
+ private:
+  bool Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
+             core::Rigid3d& world_from_depth);
+  void Integrate(const DepthPyramid& pyramid, const FrameInput& frame,
+                 const core::Rigid3d& world_from_depth, FrameRecord& record);
+  void UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record);
+  // world_from_depth at time t from the two last fused poses (interpolated between them, or
+  // extrapolated at constant velocity beyond the last).
+  core::Rigid3d PoseAt(double timestamp_s) const;
+
+  core::Rig rig_;
+  ReconstructionOptions options_;
+  Undistorter depth_undistorter_;
+  Undistorter rgb_undistorter_;
+  TsdfVolume volume_;
+  core::Trajectory trajectory_;
+  std::vector<FrameRecord> frames_;
+  std::optional<core::Rigid3d> initial_pose_;
+  std::optional<ModelPyramid> model_;  // raycast at the last fused pose
+  bool lost_ = false;
+  double last_timestamp_s_ = -1e300;
+};
+
+// Options of ReconstructScan beyond the pipeline's.
+struct ScanReconstructionOptions {
+  // Start at the scan's groundtruth pose of the first frame instead of identity, so that the
+  // model is in the scan's world frame (synthetic scans, comparisons with truth/). Needs
+  // groundtruth.txt covering the first used frame.
+  bool start_at_groundtruth = false;
+  int first_frame = 0;  // first depth frame to use, >= 0
+  int max_frames = 0;   // frames to use from first_frame, 0 = all
+
+  std::string Check() const;
+};
+
+struct ScanReconstruction {
+  std::vector<int> depth_frame_index;  // per FrameRecord: the scan's depth frame index
+  int missing_frames = 0;              // depth frames whose file is missing (skipped)
+  std::vector<std::string> warnings;   // one line each: missing frames, lost frames, ...
+  double load_seconds = 0;             // decoding frames
+  double process_seconds = 0;          // AddFrame calls
+};
+
+// Runs `reconstruction` over the depth frames of `scan` in order, with their associated rgb
+// frames (Scan::AssociatedFrame; the rgb exposure time is the rgb frame's depth-clock time).
+// Frames whose file is missing are skipped with a warning. Throws core::InputError (from
+// Scan::Load*) on a frame that cannot be decoded or has the wrong size or type, and when
+// no frame of the scan has usable depth; std::invalid_argument when start_at_groundtruth
+// finds no groundtruth pose. `frame_done(i, n)` is called after every frame.
+ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
+                                   const ScanReconstructionOptions& options,
+                                   const std::function<void(int, int)>& frame_done = nullptr);
+
+}  // namespace hw::reconstruct
