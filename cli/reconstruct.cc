@@ -203,6 +203,12 @@ std::string ReconstructCommandOptions::Check() const {
   return scan.Check();
 }
 
+namespace {
+ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& options,
+                                         const core::Scan& scan, core::OutputFolder& folder,
+                                         std::chrono::steady_clock::time_point start, bool quiet);
+}  // namespace
+
 ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& options, bool quiet) {
   assert(options.Check().empty());
   const auto start = std::chrono::steady_clock::now();
@@ -215,7 +221,27 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   if (fs::exists(options.out_folder, ec) && !fs::is_directory(options.out_folder, ec)) {
     throw core::OutputError(options.out_folder, "exists and is not a folder");
   }
+  const bool created_folder = !fs::exists(options.out_folder, ec);
   core::OutputFolder folder(options.out_folder, "heatwave reconstruct");
+  try {
+    return ReconstructInto(options, scan, folder, start, quiet);
+  } catch (...) {
+    // A failed run leaves nothing of its own: outputs are written only at the very end
+    // (atomically), so the folder holds at most the run marker — removed, with the folder
+    // itself when this run created it. (An interrupted run leaves the marker: incomplete.)
+    if (folder.IsEmpty()) {
+      folder.Abandon();
+      if (created_folder) fs::remove(options.out_folder, ec);
+    }
+    throw;
+  }
+}
+
+namespace {
+
+ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& options,
+                                         const core::Scan& scan, core::OutputFolder& folder,
+                                         std::chrono::steady_clock::time_point start, bool quiet) {
   if (!folder.IsEmpty()) {
     if (!options.overwrite) {
       folder.Abandon();
@@ -302,6 +328,8 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   folder.Commit();
   return r;
 }
+
+}  // namespace
 
 std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   std::string out;

@@ -1,0 +1,226 @@
+#include "reconstruct/reconstruction.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/ply.h"
+#include "core/scan.h"
+#include "reconstruct/reconstruct_test_support.h"
+#include "reconstruct/surface_eval.h"
+#include "reconstruct/trajectory_eval.h"
+
+namespace hw::reconstruct {
+namespace {
+
+using core::Stream;
+using test::CachedScan;
+using test::TestScanOptions;
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+// The pipeline at the test scans' 160×120: voxels of 1 cm (a 640×480 frame's pixel at 1 m
+// is 1.75 mm; at 160×120, 7 mm — finer voxels would hold single noisy pixels).
+ReconstructionOptions TestOptions() {
+  ReconstructionOptions o;
+  o.tsdf.voxel_size_m = 0.01;
+  o.tsdf.truncation_m = 0.04;
+  o.mesh.min_component_triangles = 20;
+  return o;
+}
+
+struct Run {
+  TrajectoryEval eval;
+  std::vector<FrameRecord> frames;
+  TriangleMesh mesh;
+};
+
+Run ReconstructAndEvaluate(const core::Scan& scan, const ReconstructionOptions& options,
+                           bool start_at_groundtruth = true) {
+  Reconstruction reconstruction(scan.rig(), options);
+  ScanReconstructionOptions scan_options;
+  scan_options.start_at_groundtruth = start_at_groundtruth;
+  ReconstructScan(scan, reconstruction, scan_options);
+  Run run;
+  run.eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
+  run.frames = reconstruction.frames();
+  run.mesh = reconstruction.ExtractMesh();
+  return run;
+}
+
+TEST(Reconstruction, SmoothScanTracksEveryFrameWithinMillimetres) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  const Run run = ReconstructAndEvaluate(scan, TestOptions());
+  int fused = 0;
+  for (const FrameRecord& f : run.frames) fused += f.fused;
+  EXPECT_EQ(fused, static_cast<int>(run.frames.size()));
+  EXPECT_EQ(run.eval.associated_pairs, fused);
+  // ATE bound: at 160×120 one pixel spans 7 mm at 1 m and the depth noise is ~3 mm there;
+  // ICP over ~10k points averages both down to ~1 mm per frame, and a 1 s smooth sweep
+  // accumulates a few of those. 10 mm is 1.4 pixels: a tracker off by more has failed.
+  EXPECT_LT(run.eval.ate_m.rmse, 0.010);
+  EXPECT_LT(run.eval.rpe_deg.rmse, 1.0);
+  // Started at the true pose, the alignment to the truth is near identity.
+  EXPECT_LT(run.eval.groundtruth_from_estimate.TranslationNorm(), 0.02);
+}
+
+TEST(Reconstruction, ModelSurfaceLiesOnTheTruthMesh) {
+  const fs::path folder = CachedScan("smooth", TestScanOptions());
+  const core::Scan scan = core::Scan::Open(folder);
+  const Run run = ReconstructAndEvaluate(scan, TestOptions());
+  ASSERT_GT(run.mesh.faces.size(), 1000u);
+  const core::PlyMesh truth = core::ReadPly(folder / "truth" / "scene.ply");
+  std::vector<Eigen::Vector3d> points;
+  for (const Eigen::Vector3f& p : run.mesh.positions) {
+    points.push_back(run.eval.groundtruth_from_estimate * p.cast<double>());
+  }
+  const SurfaceDistanceStats s =
+      SummarizeDistances(PointToMeshDistances(points, truth.Positions(), truth.faces, 0.05));
+  // Median within half a voxel: the TSDF's zero crossing is interpolated, the remaining
+  // error is the depth noise averaged over the frames and the tracking error above.
+  EXPECT_LT(s.median_m, 0.005);
+  EXPECT_LT(s.p90_m, 0.015);
+  // Outliers (vertices > 5 cm from any true surface): edge artefacts that survived.
+  EXPECT_LT(s.beyond_search, s.points / 50);
+  // Colour: the model is painted (the scene has no black surfaces).
+  int dark = 0;
+  for (const Rgb8& c : run.mesh.colours) dark += c.cast<int>().sum() < 15;
+  EXPECT_LT(dark, static_cast<int>(run.mesh.colours.size()) / 20);
+}
+
+TEST(Reconstruction, FrameByFrameEqualsWholeScan) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  Reconstruction whole(scan.rig(), TestOptions());
+  ScanReconstructionOptions first_ten;
+  first_ten.max_frames = 10;
+  ReconstructScan(scan, whole, first_ten);
+
+  Reconstruction live(scan.rig(), TestOptions());
+  for (int i = 0; i < 10; ++i) {
+    if (!scan.FrameExists(Stream::kDepth, i)) continue;
+    FrameInput frame;
+    frame.timestamp_s = scan.Timestamp(Stream::kDepth, i);
+    frame.depth_m = scan.LoadDepth(i);
+    if (const auto j = scan.AssociatedFrame(i, Stream::kRgb)) {
+      frame.rgb = scan.LoadRgb(*j);
+      frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
+    }
+    live.AddFrame(frame);
+  }
+  ASSERT_EQ(live.trajectory().size(), whole.trajectory().size());
+  for (size_t i = 0; i < live.trajectory().size(); ++i) {
+    const core::PoseError e = core::ComparePoses(live.trajectory().poses()[i].world_from_sensor,
+                                                 whole.trajectory().poses()[i].world_from_sensor);
+    EXPECT_EQ(e.translation_m, 0.0);
+  }
+  EXPECT_EQ(live.volume().NumBlocks(), whole.volume().NumBlocks());
+}
+
+TEST(Reconstruction, GarbageFrameIsLostNotFusedAndTrackingRecovers) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  Reconstruction reconstruction(scan.rig(), TestOptions());
+  const int n = std::min(20, scan.NumFrames(Stream::kDepth));
+  int bad_index = -1;
+  for (int i = 0; i < n; ++i) {
+    if (!scan.FrameExists(Stream::kDepth, i)) continue;
+    FrameInput frame;
+    frame.timestamp_s = scan.Timestamp(Stream::kDepth, i);
+    frame.depth_m = scan.LoadDepth(i);
+    if (i == 10) {
+      // A view of something else: the frame upside down and 60 cm deeper (a person stepping
+      // in front of the sensor looks no more like the model than this).
+      cv::Mat flipped;
+      cv::flip(frame.depth_m, flipped, -1);
+      frame.depth_m = flipped + 0.6f;
+      frame.depth_m.setTo(0, flipped == 0);
+      bad_index = static_cast<int>(reconstruction.frames().size());
+    }
+    reconstruction.AddFrame(frame);
+  }
+  ASSERT_GE(bad_index, 0);
+  const auto& frames = reconstruction.frames();
+  EXPECT_EQ(frames[bad_index].status, FrameStatus::kLost);
+  EXPECT_FALSE(frames[bad_index].fused);
+  EXPECT_NE(frames[bad_index].icp_status, IcpStatus::kOk);
+  ASSERT_GT(frames.size(), size_t(bad_index + 1));
+  EXPECT_EQ(frames[bad_index + 1].status, FrameStatus::kRecovered);
+  // No pose at the lost frame's time, and every fused pose still on the truth.
+  for (const core::TimedPose& p : reconstruction.trajectory().poses()) {
+    EXPECT_NE(p.timestamp_s, frames[bad_index].timestamp_s);
+  }
+  const TrajectoryEval eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
+  EXPECT_LT(eval.ate_m.rmse, 0.010);
+}
+
+TEST(Reconstruction, FramesWithoutDepthAreSkipped) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  Reconstruction reconstruction(scan.rig(), TestOptions());
+  FrameInput frame;
+  frame.timestamp_s = 1;
+  frame.depth_m = cv::Mat::zeros(scan.rig().depth.height, scan.rig().depth.width, CV_32FC1);
+  EXPECT_EQ(reconstruction.AddFrame(frame).status, FrameStatus::kNoDepth);
+  frame.timestamp_s = 2;
+  frame.depth_m.setTo(std::numeric_limits<float>::quiet_NaN());
+  EXPECT_EQ(reconstruction.AddFrame(frame).status, FrameStatus::kNoDepth);
+  EXPECT_TRUE(reconstruction.trajectory().empty());
+  EXPECT_EQ(reconstruction.volume().NumBlocks(), 0u);
+}
+
+TEST(Reconstruction, WrongFramesThrow) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  Reconstruction reconstruction(scan.rig(), TestOptions());
+  FrameInput frame;
+  frame.timestamp_s = 1;
+  frame.depth_m = cv::Mat::zeros(10, 10, CV_32FC1);
+  EXPECT_THROW(reconstruction.AddFrame(frame), std::invalid_argument);
+  frame.depth_m = cv::Mat::zeros(scan.rig().depth.height, scan.rig().depth.width, CV_16UC1);
+  EXPECT_THROW(reconstruction.AddFrame(frame), std::invalid_argument);
+  frame.depth_m = scan.LoadDepth(0);
+  reconstruction.AddFrame(frame);
+  EXPECT_THROW(reconstruction.AddFrame(frame), std::invalid_argument);  // same timestamp
+}
+
+TEST(Reconstruction, JerkyScanTracksOrReportsLostFramesAndRecovers) {
+  const core::Scan scan =
+      core::Scan::Open(CachedScan("jerky", TestScanOptions("equipment-small", fixtures::MotionKind::kJerky, 2.0)));
+  Reconstruction reconstruction(scan.rig(), TestOptions());
+  ScanReconstructionOptions options;
+  options.start_at_groundtruth = true;
+  ReconstructScan(scan, reconstruction, options);
+  int fused = 0, lost = 0;
+  for (const FrameRecord& f : reconstruction.frames()) {
+    fused += f.fused;
+    lost += f.status == FrameStatus::kLost;
+  }
+  EXPECT_GT(fused, static_cast<int>(reconstruction.frames().size()) * 8 / 10);
+  // Every fused pose is right: a frame that could not be tracked must have been reported lost
+  // rather than fused at a wrong pose. 3 cm is several times the smooth scan's error.
+  for (const core::TimedPose& p : reconstruction.trajectory().poses()) {
+    const auto truth = scan.groundtruth()->At(p.timestamp_s);
+    ASSERT_TRUE(truth);
+    const core::PoseError e = core::ComparePoses(*truth, p.world_from_sensor);
+    EXPECT_LT(e.translation_m, 0.03) << "t = " << p.timestamp_s << " (" << lost << " lost frames)";
+    EXPECT_LT(e.rotation_rad, 2 * kDeg) << "t = " << p.timestamp_s;
+  }
+}
+
+TEST(ReconstructionOptions, CheckNamesTheField) {
+  EXPECT_EQ(ReconstructionOptions().Check(), "");
+  ReconstructionOptions o;
+  o.max_depth_m = 0.1;
+  EXPECT_NE(o.Check().find("max_depth_m"), std::string::npos);
+  o = ReconstructionOptions();
+  o.tsdf.voxel_size_m = 0;
+  EXPECT_EQ(o.Check().rfind("tsdf.voxel_size_m", 0), 0u) << o.Check();
+  o = ReconstructionOptions();
+  o.relocalisation_widening = 0.5;
+  EXPECT_NE(o.Check().find("relocalisation_widening"), std::string::npos);
+  ScanReconstructionOptions s;
+  s.first_frame = -1;
+  EXPECT_NE(s.Check().find("first_frame"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hw::reconstruct

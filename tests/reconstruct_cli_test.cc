@@ -1,0 +1,182 @@
+// End-to-end tests of `heatwave reconstruct` and `heatwave eval-trajectory`: outputs, the
+// report, and what bad scans, bad outputs and interruptions leave behind.
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/atomic_file.h"
+#include "core/output_folder.h"
+#include "core/ply.h"
+#include "core/scan.h"
+#include "core/trajectory.h"
+#include "reconstruct/reconstruct_test_support.h"
+#include "tests/support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::test::CountLines;
+using hw::test::FreshPath;
+using hw::test::TestFolder;
+using Result = hw::test::CommandResult;
+
+Result Heatwave(const std::string& args) {
+  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+}
+
+// Options of every run here: the test scans' 160×120 wants 1 cm voxels.
+const std::string kOptions = " --voxel-size 0.01 -q";
+
+fs::path SmoothScan() {
+  return hw::reconstruct::test::CachedScan("smooth", hw::reconstruct::test::TestScanOptions());
+}
+
+// A copy of the smooth scan to damage.
+fs::path CopyOfScan(const std::string& name) {
+  const fs::path copy = TestFolder(name);
+  fs::copy(SmoothScan(), copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  return copy;
+}
+
+std::vector<fs::path> Temporaries(const fs::path& folder) {
+  std::vector<fs::path> found;
+  if (!fs::exists(folder)) return found;
+  for (const auto& entry : fs::recursive_directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() > 1 && name[0] == '.' && name != hw::core::kRunMarkerName) found.push_back(entry.path());
+  }
+  return found;
+}
+
+std::string Read(const fs::path& path) { return hw::core::ReadFile(path, hw::core::kMaxMeshFileBytes); }
+
+TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() +
+                            " --voxel-size 0.01 --start-at-groundtruth");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("ATE RMSE"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Surface"), std::string::npos) << r.output;
+  const hw::core::Trajectory trajectory = hw::core::ReadTumTrajectory(out / "trajectory.txt");
+  const hw::core::Scan scan = hw::core::Scan::Open(SmoothScan());
+  const int present = scan.NumFrames(hw::core::Stream::kDepth) - scan.NumMissingFrames(hw::core::Stream::kDepth);
+  EXPECT_EQ(static_cast<int>(trajectory.size()), present);
+  const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
+  EXPECT_TRUE(model.HasNormals());
+  EXPECT_TRUE(model.HasColors());
+  EXPECT_GT(model.faces.size(), 1000u);
+  const std::string json = Read(out / "reconstruct.json");
+  for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
+                          "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
+                          "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\""}) {
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  }
+  EXPECT_FALSE(fs::exists(out / hw::core::kRunMarkerName));
+  // Its trajectory evaluates with eval-trajectory too.
+  const Result eval = Heatwave("eval-trajectory " + (out / "trajectory.txt").string() + " " +
+                               (SmoothScan() / "groundtruth.txt").string() + " --json");
+  EXPECT_EQ(eval.exit_code, 0) << eval.output;
+}
+
+TEST(ReconstructCli, OutThatIsAFileIsOneLineAndExit1) {
+  const fs::path file = TestFolder() / "model.txt";
+  hw::core::WriteFileAtomically(file, "not a folder\n");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + file.string() + kOptions);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("not a folder"), std::string::npos) << r.output;
+  EXPECT_EQ(Read(file), "not a folder\n");
+}
+
+TEST(ReconstructCli, NonEmptyOutNeedsOverwrite) {
+  const fs::path out = TestFolder("out");
+  hw::core::WriteFileAtomically(out / "notes.txt", "keep me\n");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_FALSE(fs::exists(out / hw::core::kRunMarkerName));
+  const Result again = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() +
+                                kOptions + " --overwrite --max-frames 5");
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(Read(out / "notes.txt"), "keep me\n");
+  EXPECT_TRUE(fs::exists(out / "model.ply"));
+}
+
+TEST(ReconstructCli, AllZeroDepthIsOneLineExit1AndNoOutput) {
+  const fs::path scan = CopyOfScan("zero-scan");
+  const hw::core::Scan opened = hw::core::Scan::Open(scan);
+  const cv::Mat zero = cv::Mat::zeros(opened.rig().depth.height, opened.rig().depth.width, CV_16UC1);
+  for (int i = 0; i < opened.NumFrames(hw::core::Stream::kDepth); ++i) {
+    if (opened.FrameExists(hw::core::Stream::kDepth, i)) {
+      ASSERT_TRUE(cv::imwrite(opened.FramePath(hw::core::Stream::kDepth, i).string(), zero));
+    }
+  }
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("no usable depth"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(ReconstructCli, WrongSizeDepthFrameIsOneLineNamingTheFile) {
+  const fs::path scan = CopyOfScan("wrong-size");
+  const hw::core::Scan opened = hw::core::Scan::Open(scan);
+  const fs::path frame = opened.FramePath(hw::core::Stream::kDepth, 5);
+  ASSERT_TRUE(cv::imwrite(frame.string(), cv::Mat::zeros(10, 10, CV_16UC1)));
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find(frame.filename().string()), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // 8-bit depth: the same.
+  ASSERT_TRUE(cv::imwrite(frame.string(), cv::Mat::zeros(opened.rig().depth.height, opened.rig().depth.width, CV_8UC1)));
+  const Result r8 = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(r8.exit_code, 1) << r8.output;
+  EXPECT_EQ(CountLines(r8.output), 1) << r8.output;
+}
+
+TEST(ReconstructCli, MissingFramesAreSkippedAndCounted) {
+  const fs::path scan = CopyOfScan("missing");
+  const hw::core::Scan opened = hw::core::Scan::Open(scan);
+  const int before = opened.NumMissingFrames(hw::core::Stream::kDepth);
+  fs::remove(opened.FramePath(hw::core::Stream::kDepth, 7));
+  fs::remove(opened.FramePath(hw::core::Stream::kDepth, 8));
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + " --voxel-size 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("missing, skipped"), std::string::npos) << r.output;
+  const std::string json = Read(out / "reconstruct.json");
+  EXPECT_NE(json.find("\"missing\": " + std::to_string(before + 2)), std::string::npos) << json.substr(0, 2000);
+}
+
+TEST(ReconstructCli, InterruptedRunLeavesNoOutputFile) {
+  const fs::path out = FreshPath("out");
+  // A longer scan so the run is still tracking when interrupted.
+  const fs::path scan = hw::reconstruct::test::CachedScan(
+      "jerky", hw::reconstruct::test::TestScanOptions("equipment-small", hw::fixtures::MotionKind::kJerky, 2.0));
+  const Result r = hw::test::RunCommand(
+      "bash -c 'set -m; " + std::string(HW_HEATWAVE_EXE) + " reconstruct " + scan.string() + " --out " +
+      out.string() + " --voxel-size 0.005 -q & pid=$!; for i in $(seq 1 200); do "
+      "[ -e " + (out / hw::core::kRunMarkerName).string() + " ] && break; sleep 0.01; done; sleep 0.3; "
+      "kill -INT $pid; wait $pid; echo \"status $?\"'");
+  EXPECT_NE(r.output.find("status 130"), std::string::npos) << r.output;
+  EXPECT_TRUE(Temporaries(out).empty());
+  EXPECT_FALSE(fs::exists(out / "model.ply"));
+  EXPECT_FALSE(fs::exists(out / "trajectory.txt"));
+  EXPECT_FALSE(fs::exists(out / "reconstruct.json"));
+}
+
+TEST(ReconstructCli, BadOptionsAreExit2) {
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                            " --voxel-size 0");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("voxel_size_m"), std::string::npos) << r.output;
+  EXPECT_EQ(Heatwave("reconstruct " + SmoothScan().string()).exit_code, 2);  // no --out
+}
+
+}  // namespace
