@@ -71,9 +71,10 @@ constexpr int CacheIndex(int x, int y, int z) {
 
 // What one block contributes, before vertex ids are made global.
 struct BlockResult {
-  // Index of the vertex on the edge from voxel (x, y, z) of this block along each axis, at
-  // [3 · (x + 8 (y + 8 z)) + axis]; −1 where the edge is not cut. Empty without vertices.
-  std::vector<int32_t> edge_vertex;
+  // The cut edges starting at this block's voxels, as 3 · (x + 8 (y + 8 z)) + axis, in
+  // increasing order; the vertex on edge_keys[i] is vertex i of the block. (A sorted list,
+  // not a dense table: a surface block has a few dozen cut edges out of 1536.)
+  std::vector<uint16_t> edge_keys;
   std::vector<Eigen::Vector3f> positions;
   std::vector<Eigen::Vector3f> normals;
   std::vector<Rgb8> colours;
@@ -110,20 +111,38 @@ void ParallelRanges(int n, int num_threads, const Fn& fn) {
   for (std::thread& thread : threads) thread.join();
 }
 
-// The block's voxels with their borders: sdf, and the voxel when observed (else nullptr).
+// Offsets of the 8 corners of a cube from its origin cell, in kCubeCorners order.
+constexpr std::array<int, 8> kCornerOffset = [] {
+  std::array<int, 8> offsets{};
+  for (int k = 0; k < 8; ++k) {
+    for (int axis = 0; axis < 3; ++axis) offsets[k] += internal::kCubeCorners[k][axis] * kCacheStride[axis];
+  }
+  return offsets;
+}();
+
+// Cell codes.
+constexpr uint8_t kOutside = 0;     // observed, sdf >= 0 (free space)
+constexpr uint8_t kInside = 1;      // observed, sdf < 0 (behind the surface)
+constexpr uint8_t kUnobserved = 2;  // missing block, weight 0 or below min_weight
+
+// A block's voxels with their borders, and which blocks are around it.
 struct VoxelCache {
   std::array<float, kCacheCells> sdf;
-  std::array<const Voxel*, kCacheCells> voxel;
+  std::array<const Voxel*, kCacheCells> voxel;  // nullptr when unobserved
+  std::array<uint8_t, kCacheCells> code;
+  // Sorted indices of the 27 blocks around (−1 when missing) at (dx+1) + 3 (dy+1) + 9 (dz+1).
+  std::array<int, 27> around;
 
-  void Load(const std::vector<const VoxelBlock*>& blocks, const BlockIndex& index, const BlockKey& key,
+  // Loads the block's cells and those of the +1 layer (the cube corners); returns false when
+  // no two observed ones have opposite signs, i.e. the block has no surface (the common
+  // case away from it). When it has one, loads the −1 and +2 layers too, for the gradients.
+  bool Load(const std::vector<const VoxelBlock*>& blocks, const BlockIndex& index, const BlockKey& key,
             float min_weight) {
-    // The 27 blocks around, at (dx + 1) + 3 (dy + 1) + 9 (dz + 1).
-    std::array<const VoxelBlock*, 27> around;
     for (int dz = -1; dz <= 1; ++dz) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
           const auto it = index.find(key + BlockKey(dx, dy, dz));
-          around[(dx + 1) + 3 * (dy + 1) + 9 * (dz + 1)] = it == index.end() ? nullptr : blocks[it->second];
+          around[(dx + 1) + 3 * (dy + 1) + 9 * (dz + 1)] = it == index.end() ? -1 : it->second;
         }
       }
     }
@@ -133,22 +152,51 @@ struct VoxelCache {
       which[l - kCacheMin] = l < 0 ? 0 : (l < kBlockSide ? 1 : 2);
       local[l - kCacheMin] = l - (which[l - kCacheMin] - 1) * kBlockSide;
     }
-    int c = 0;
+    // Weight 0 is never observed, whatever min_weight says.
+    const float threshold = std::max(min_weight, std::numeric_limits<float>::denorm_min());
+    // Loads cache cells x0..x1 of row (y, z) (cache coordinates, from 0).
+    const auto load_row = [&](int y, int z, int x0, int x1, bool& inside, bool& outside) {
+      const Voxel* row[3];  // voxel (0, local y, local z) of the three blocks along x
+      for (int w = 0; w < 3; ++w) {
+        const int b = around[w + 3 * which[y] + 9 * which[z]];
+        row[w] = b < 0 ? nullptr : &blocks[b]->voxels[kBlockSide * (local[y] + kBlockSide * local[z])];
+      }
+      int c = kCacheSide * (y + kCacheSide * z) + x0;
+      for (int x = x0; x <= x1; ++x, ++c) {
+        const Voxel* v = row[which[x]];
+        if (v != nullptr) v += local[x];
+        if (v != nullptr && v->weight >= threshold) {
+          voxel[c] = v;
+          sdf[c] = v->sdf;
+          const bool negative = v->sdf < 0;
+          code[c] = negative ? kInside : kOutside;
+          inside |= negative;
+          outside |= !negative;
+        } else {
+          voxel[c] = nullptr;
+          sdf[c] = 0.0f;
+          code[c] = kUnobserved;
+        }
+      }
+    };
+    bool inside = false, outside = false;
+    for (int z = 1; z <= kBlockSide + 1; ++z) {
+      for (int y = 1; y <= kBlockSide + 1; ++y) load_row(y, z, 1, kBlockSide + 1, inside, outside);
+    }
+    if (!inside || !outside) return false;
+    bool unused_inside, unused_outside;
+    constexpr int kLast = kCacheSide - 1;
     for (int z = 0; z < kCacheSide; ++z) {
       for (int y = 0; y < kCacheSide; ++y) {
-        for (int x = 0; x < kCacheSide; ++x, ++c) {
-          const VoxelBlock* block = around[which[x] + 3 * which[y] + 9 * which[z]];
-          const Voxel* v = nullptr;
-          if (block != nullptr) {
-            v = &block->voxels[local[x] + kBlockSide * (local[y] + kBlockSide * local[z])];
-            // Weight 0 is never observed, whatever min_weight says.
-            if (!(v->weight > 0 && v->weight >= min_weight)) v = nullptr;
-          }
-          voxel[c] = v;
-          sdf[c] = v != nullptr ? v->sdf : 0.0f;
+        if (z == 0 || z == kLast || y == 0 || y == kLast) {
+          load_row(y, z, 0, kLast, unused_inside, unused_outside);
+        } else {
+          load_row(y, z, 0, 0, unused_inside, unused_outside);
+          load_row(y, z, kLast, kLast, unused_inside, unused_outside);
         }
       }
     }
+    return true;
   }
 
   // The sdf gradient at a cell (per voxel): central difference, one-sided next to an
@@ -175,20 +223,17 @@ void ExtractBlockVertices(const VoxelCache& cache, const BlockKey& key, float vo
     for (int y = 0; y < kBlockSide; ++y) {
       for (int x = 0; x < kBlockSide; ++x) {
         const int c = CacheIndex(x, y, z);
-        const Voxel* v0 = cache.voxel[c];
+        const uint8_t code0 = cache.code[c];
+        if (code0 == kUnobserved) continue;
         const int voxel_index = x + kBlockSide * (y + kBlockSide * z);
-        if (v0 == nullptr) continue;
-        const float s0 = cache.sdf[c];
         for (int axis = 0; axis < 3; ++axis) {
           const int c1 = c + kCacheStride[axis];
-          const Voxel* v1 = cache.voxel[c1];
-          if (v1 == nullptr) continue;
-          const float s1 = cache.sdf[c1];
-          if ((s0 < 0) == (s1 < 0)) continue;
+          const uint8_t code1 = cache.code[c1];
+          if (code1 == kUnobserved || code1 == code0) continue;
           // The signs differ, so s0 − s1 is not 0 and t is in [0, 1].
+          const float s0 = cache.sdf[c], s1 = cache.sdf[c1];
           const float t = s0 / (s0 - s1);
-          if (out.edge_vertex.empty()) out.edge_vertex.assign(3 * kBlockVoxels, -1);
-          out.edge_vertex[3 * voxel_index + axis] = static_cast<int32_t>(out.positions.size());
+          out.edge_keys.push_back(static_cast<uint16_t>(3 * voxel_index + axis));
           Eigen::Vector3f p = (origin + Eigen::Vector3i(x, y, z)).cast<float>();
           p[axis] += t;
           out.positions.push_back(p * voxel_size_m);
@@ -201,7 +246,8 @@ void ExtractBlockVertices(const VoxelCache& cache, const BlockKey& key, float vo
             n[axis] = s1 > s0 ? 1.0f : -1.0f;  // the edge itself crosses towards free space
           }
           out.normals.push_back(n);
-          const Eigen::Vector3f rgb = (1 - t) * v0->colour.cast<float>() + t * v1->colour.cast<float>();
+          const Eigen::Vector3f rgb =
+              (1 - t) * cache.voxel[c]->colour.cast<float>() + t * cache.voxel[c1]->colour.cast<float>();
           out.colours.push_back((rgb.array() + 0.5f).min(255.0f).max(0.0f).matrix().cast<std::uint8_t>());
         }
       }
@@ -210,16 +256,13 @@ void ExtractBlockVertices(const VoxelCache& cache, const BlockKey& key, float vo
   for (int z = 0; z < kBlockSide; ++z) {
     for (int y = 0; y < kBlockSide; ++y) {
       for (int x = 0; x < kBlockSide; ++x) {
-        const int c = CacheIndex(x, y, z);
-        int cube = 0;
-        bool observed = true;
-        for (int k = 0; k < 8 && observed; ++k) {
-          const int* d = internal::kCubeCorners[k];
-          const int ck = c + d[0] * kCacheStride[0] + d[1] * kCacheStride[1] + d[2] * kCacheStride[2];
-          observed = cache.voxel[ck] != nullptr;
-          if (cache.sdf[ck] < 0) cube |= 1 << k;
+        const uint8_t* q = &cache.code[CacheIndex(x, y, z)];
+        int cube = 0, any = 0;
+        for (int k = 0; k < 8; ++k) {
+          cube |= (q[kCornerOffset[k]] & kInside) << k;
+          any |= q[kCornerOffset[k]];
         }
-        if (!observed || tables.edge_mask[cube] == 0) continue;
+        if ((any & kUnobserved) || tables.edge_mask[cube] == 0) continue;
         out.cubes.emplace_back(static_cast<uint16_t>(x + kBlockSide * (y + kBlockSide * z)),
                                static_cast<uint8_t>(cube));
       }
@@ -227,10 +270,37 @@ void ExtractBlockVertices(const VoxelCache& cache, const BlockKey& key, float vo
   }
 }
 
+// Global ids of the vertices on the edges starting at the voxels 0..8 of a block (its own
+// and the first layer of its +x, +y, +z neighbours): a dense scratch table, reset after use.
+struct EdgeIds {
+  static constexpr int kSide = kBlockSide + 1;
+  std::vector<int32_t> id = std::vector<int32_t>(3 * kSide * kSide * kSide, -1);
+  std::vector<int> written;
+
+  static int Index(int x, int y, int z, int axis) { return 3 * (x + kSide * (y + kSide * z)) + axis; }
+};
+
 // Triangles of the block's cubes, with global vertex ids.
 void ExtractBlockFaces(const std::vector<BlockResult>& results, const std::vector<int32_t>& first_vertex,
-                       const internal::MarchingCubesTables& tables, int b, std::vector<Eigen::Vector3i>& faces) {
+                       const internal::MarchingCubesTables& tables, int b, EdgeIds& ids,
+                       std::vector<Eigen::Vector3i>& faces) {
   const BlockResult& out = results[b];
+  if (out.cubes.empty()) return;
+  for (int d = 0; d < 8; ++d) {
+    const int owner = out.forward[d];
+    if (owner < 0) continue;
+    const int dx = (d & 1) * kBlockSide, dy = ((d >> 1) & 1) * kBlockSide, dz = ((d >> 2) & 1) * kBlockSide;
+    const std::vector<uint16_t>& keys = results[owner].edge_keys;
+    for (size_t i = 0; i < keys.size(); ++i) {
+      const int voxel_index = keys[i] / 3, axis = keys[i] % 3;
+      const int x = voxel_index % kBlockSide + dx, y = (voxel_index / kBlockSide) % kBlockSide + dy,
+                z = voxel_index / (kBlockSide * kBlockSide) + dz;
+      if (x > kBlockSide || y > kBlockSide || z > kBlockSide) continue;
+      const int at = EdgeIds::Index(x, y, z, axis);
+      ids.id[at] = first_vertex[owner] + static_cast<int32_t>(i);
+      ids.written.push_back(at);
+    }
+  }
   for (const auto& [voxel_index, cube] : out.cubes) {
     const int x = voxel_index % kBlockSide, y = (voxel_index / kBlockSide) % kBlockSide,
               z = voxel_index / (kBlockSide * kBlockSide);
@@ -239,23 +309,16 @@ void ExtractBlockFaces(const std::vector<BlockResult>& results, const std::vecto
       Eigen::Vector3i face;
       for (int k = 0; k < 3; ++k) {
         const int e = tri[i + k];
-        const auto& d = tables.edge_origin[e];
-        int lx = x + d[0], ly = y + d[1], lz = z + d[2];
-        const int nx = lx >= kBlockSide, ny = ly >= kBlockSide, nz = lz >= kBlockSide;
-        const int owner = out.forward[nx + 2 * ny + 4 * nz];
-        // All 8 corners were observed, so the owner exists and cut this edge.
-        assert(owner >= 0);
-        lx -= nx * kBlockSide;
-        ly -= ny * kBlockSide;
-        lz -= nz * kBlockSide;
-        const BlockResult& o = results[owner];
-        const int32_t local = o.edge_vertex[3 * (lx + kBlockSide * (ly + kBlockSide * lz)) + tables.edge_axis[e]];
-        assert(local >= 0);
-        face[k] = first_vertex[owner] + local;
+        const auto& o = tables.edge_origin[e];
+        face[k] = ids.id[EdgeIds::Index(x + o[0], y + o[1], z + o[2], tables.edge_axis[e])];
       }
+      // All 8 corners were observed, so the blocks owning the cut edges exist and made them.
+      assert(face.minCoeff() >= 0);
       faces.push_back(face);
     }
   }
+  for (const int at : ids.written) ids.id[at] = -1;
+  ids.written.clear();
 }
 
 int Find(std::vector<int32_t>& parent, int32_t v) {
@@ -361,12 +424,9 @@ TriangleMesh ExtractMesh(const TsdfVolume& volume, const MeshOptions& options, M
     for (int b = begin; b < end; ++b) {
       const BlockKey& key = blocks[b]->key;
       BlockResult& out = results[b];
-      for (int d = 0; d < 8; ++d) {
-        const auto it = index.find(key + BlockKey(d & 1, (d >> 1) & 1, (d >> 2) & 1));
-        out.forward[d] = it == index.end() ? -1 : it->second;
-      }
-      cache->Load(blocks, index, key, min_weight);
-      ExtractBlockVertices(*cache, key, voxel_size_m, tables, out);
+      const bool surface = cache->Load(blocks, index, key, min_weight);
+      for (int d = 0; d < 8; ++d) out.forward[d] = cache->around[13 + (d & 1) + 3 * ((d >> 1) & 1) + 9 * (d >> 2)];
+      if (surface) ExtractBlockVertices(*cache, key, voxel_size_m, tables, out);
     }
   });
   // Vertex ids: blocks in key order, vertices in the order each block made them.
@@ -378,7 +438,8 @@ TriangleMesh ExtractMesh(const TsdfVolume& volume, const MeshOptions& options, M
   }
   std::vector<std::vector<Eigen::Vector3i>> block_faces(blocks.size());
   ParallelRanges(num_blocks, num_threads, [&](int begin, int end) {
-    for (int b = begin; b < end; ++b) ExtractBlockFaces(results, first_vertex, tables, b, block_faces[b]);
+    EdgeIds ids;
+    for (int b = begin; b < end; ++b) ExtractBlockFaces(results, first_vertex, tables, b, ids, block_faces[b]);
   });
 
   TriangleMesh mesh;

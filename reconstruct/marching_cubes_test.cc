@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <functional>
 #include <map>
 #include <random>
@@ -508,12 +509,19 @@ TEST(MarchingCubesTest, WallOfAMillionVoxels) {
     MeshOptions options;
     options.num_threads = threads;
     MeshStats stats;
-    const auto start = std::chrono::steady_clock::now();
-    mesh = ExtractMesh(volume, options, &stats);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    std::printf("wall 1 m² at 5 mm: %lld voxels in %zu blocks -> %zu vertices, %zu faces in %.1f ms (%d threads)\n",
+    // The best of 3 (the machine is shared), elapsed and CPU time of the process.
+    double ms = 1e9, cpu_ms = 1e9;
+    for (int run = 0; run < 3; ++run) {
+      const auto start = std::chrono::steady_clock::now();
+      const std::clock_t cpu_start = std::clock();
+      mesh = ExtractMesh(volume, options, &stats);
+      cpu_ms = std::min(cpu_ms, 1e3 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+      ms = std::min(ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    }
+    std::printf("wall 1 m² at 5 mm: %lld voxels in %zu blocks -> %zu vertices, %zu faces in %.1f ms (CPU %.1f ms), "
+                "%d threads\n",
                 static_cast<long long>(voxels), volume.NumBlocks(), mesh.positions.size(), mesh.faces.size(), ms,
-                threads);
+                cpu_ms, threads);
     EXPECT_EQ(stats.components, 1);
   }
   // Voxel centres span 0 .. 1 − h along x and y.
