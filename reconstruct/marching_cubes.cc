@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <cstdint>
@@ -72,8 +73,9 @@ constexpr int CacheIndex(int x, int y, int z) {
 // What one block contributes, before vertex ids are made global.
 struct BlockResult {
   // The cut edges starting at this block's voxels, as 3 · (x + 8 (y + 8 z)) + axis, in
-  // increasing order; the vertex on edge_keys[i] is vertex i of the block. (A sorted list,
-  // not a dense table: a surface block has a few dozen cut edges out of 1536.)
+  // increasing order; the vertex on edge_keys[i] is vertex i of the block. (A list, not a
+  // dense table: a surface block has a few dozen cut edges out of 1536; EdgeIds spreads
+  // them into a dense table per thread when the faces are made.)
   std::vector<uint16_t> edge_keys;
   std::vector<Eigen::Vector3f> positions;
   std::vector<Eigen::Vector3f> normals;
@@ -93,21 +95,21 @@ struct BlockKeyHash {
 };
 using BlockIndex = std::unordered_map<BlockKey, int, BlockKeyHash>;
 
-// Runs fn(begin, end) over num_threads contiguous ranges of [0, n).
+// Runs fn(begin, end) over chunks of [0, n) on num_threads threads, each taking the next
+// chunk when done (surface blocks cluster: equal ranges would leave a thread idle). Chunks
+// of a few dozen blocks keep the scheduling coarse.
 template <typename Fn>
-void ParallelRanges(int n, int num_threads, const Fn& fn) {
-  num_threads = std::clamp(num_threads, 1, std::max(1, n));
-  if (num_threads == 1) {
-    fn(0, n);
-    return;
-  }
+void ParallelChunks(int n, int num_threads, const Fn& fn) {
+  constexpr int kChunk = 32;
+  const int num_chunks = (n + kChunk - 1) / kChunk;
+  std::atomic<int> next{0};
+  const auto work = [&] {
+    for (int chunk = next++; chunk < num_chunks; chunk = next++) fn(chunk * kChunk, std::min(n, (chunk + 1) * kChunk));
+  };
+  num_threads = std::clamp(num_threads, 1, std::max(1, num_chunks));
   std::vector<std::thread> threads;
-  for (int t = 1; t < num_threads; ++t) {
-    threads.emplace_back([&fn, t, n, num_threads] {
-      fn(static_cast<int>(int64_t{n} * t / num_threads), static_cast<int>(int64_t{n} * (t + 1) / num_threads));
-    });
-  }
-  fn(0, static_cast<int>(int64_t{n} / num_threads));
+  for (int t = 1; t < num_threads; ++t) threads.emplace_back(work);
+  work();
   for (std::thread& thread : threads) thread.join();
 }
 
@@ -419,7 +421,7 @@ TriangleMesh ExtractMesh(const TsdfVolume& volume, const MeshOptions& options, M
   for (int b = 0; b < num_blocks; ++b) index.emplace(blocks[b]->key, b);
 
   std::vector<BlockResult> results(blocks.size());
-  ParallelRanges(num_blocks, num_threads, [&](int begin, int end) {
+  ParallelChunks(num_blocks, num_threads, [&](int begin, int end) {
     auto cache = std::make_unique<VoxelCache>();
     for (int b = begin; b < end; ++b) {
       const BlockKey& key = blocks[b]->key;
@@ -437,7 +439,7 @@ TriangleMesh ExtractMesh(const TsdfVolume& volume, const MeshOptions& options, M
     first_vertex[b + 1] = static_cast<int32_t>(total);
   }
   std::vector<std::vector<Eigen::Vector3i>> block_faces(blocks.size());
-  ParallelRanges(num_blocks, num_threads, [&](int begin, int end) {
+  ParallelChunks(num_blocks, num_threads, [&](int begin, int end) {
     EdgeIds ids;
     for (int b = begin; b < end; ++b) ExtractBlockFaces(results, first_vertex, tables, b, ids, block_faces[b]);
   });
