@@ -13,6 +13,8 @@
 #include <unordered_map>
 #include <utility>
 
+#include <Eigen/Geometry>
+
 #include "reconstruct/marching_cubes_tables.h"
 #include "reconstruct/option_check.h"
 
