@@ -15,8 +15,9 @@
 namespace hw::reconstruct {
 
 struct MeshOptions {
-  // Voxels with weight below this are treated as unobserved (seen once from afar is noise).
-  double min_weight = 1;  // in [0, max_weight]
+  // Voxels with weight below this are treated as unobserved (seen once from afar is noise);
+  // weight 0 is always unobserved. In [0, 65535] (above the volume's max_weight: no mesh).
+  double min_weight = 1;
   // Connected components (sharing vertices) with fewer triangles than this are removed.
   int min_component_triangles = 50;  // >= 0 (0: keep all)
   // ... and so are those whose area is below this fraction of the largest one's. In [0, 1).
@@ -46,6 +47,20 @@ struct MeshStats {
 // across block borders; the zero crossing of sdf on each edge by linear interpolation.
 // Vertices are shared between the triangles of neighbouring cubes. Deterministic: the same
 // volume gives the same mesh, vertex order included, whatever num_threads.
+//
+// Details:
+// - One vertex per cut voxel edge (end voxels observed, sdf < 0 at one end and >= 0 at the
+//   other), at the linear zero crossing; its colour is interpolated the same way, its normal
+//   is the interpolated central-difference gradient of sdf at the two end voxels (one-sided
+//   next to unobserved voxels), normalised.
+// - Ambiguous cube faces are cut keeping their inside (sdf < 0) corners apart, in every cube
+//   alike (marching_cubes_tables.h): no cracks, and a closed sdf surface gives a closed,
+//   consistently oriented mesh (every edge shared by two triangles). The topology inside an
+//   ambiguous cube is that rule's, not necessarily the trilinear interpolant's.
+// - Vertex order: blocks sorted by key (z, then y, then x), and in a block by voxel and axis;
+//   faces likewise by block and cube. Removing fragments keeps that order.
+// - Reads the volume only (blocks through ForEachBlock); must not run concurrently with
+//   calls that modify it.
 TriangleMesh ExtractMesh(const TsdfVolume& volume, const MeshOptions& options,
                          MeshStats* stats = nullptr);
 
