@@ -125,8 +125,7 @@ std::vector<PosePair> AssociatePoses(const core::Trajectory& estimated,
   for (size_t i = 0; i < est.size(); ++i) {
     const double t = est[i].timestamp_s;
     while (first < gt.size() && gt[first].timestamp_s < t - max_time_difference_s) ++first;
-    for (size_t j = first; j < gt.size() && gt[j].timestamp_s <= t + max_time_difference_s;
-         ++j) {
+    for (size_t j = first; j < gt.size() && gt[j].timestamp_s <= t + max_time_difference_s; ++j) {
       const double dt_s = std::abs(gt[j].timestamp_s - t);
       if (dt_s <= max_time_difference_s) candidates.push_back({dt_s, j, i});
     }

@@ -41,8 +41,9 @@ Rigid3d Translation(double x, double y, double z) {
 // A smooth hand-held-like trajectory: a loop with a slow climb, the camera turning with it.
 Rigid3d SmoothPose(double t_s) {
   const double a = 0.8 * t_s;
-  const Eigen::Quaterniond q = Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()) *
-                               Eigen::AngleAxisd(0.2 * std::sin(1.3 * t_s), Eigen::Vector3d::UnitX());
+  const Eigen::Quaterniond q =
+      Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()) *
+      Eigen::AngleAxisd(0.2 * std::sin(1.3 * t_s), Eigen::Vector3d::UnitX());
   return Rigid3d(q, Eigen::Vector3d(0.5 * std::cos(a), 0.3 * std::sin(a), 0.1 * t_s));
 }
 
@@ -91,8 +92,8 @@ TEST(AlignPoints, RecoversAKnownTransformExactlyWhateverThePointOrder) {
       source_shuffled.push_back(source[i]);
       target_shuffled.push_back(target[i]);
     }
-    ExpectSameTransform(AlignPoints(source_shuffled, target_shuffled),
-                        AlignPoints(source, target), 1e-12);
+    ExpectSameTransform(AlignPoints(source_shuffled, target_shuffled), AlignPoints(source, target),
+                        1e-12);
   }
 }
 
@@ -168,8 +169,8 @@ TEST(EvaluateTrajectory, IsotropicPositionNoiseGivesTheExpectedRmse) {
     const Eigen::Quaterniond rotation = RandomRigid(rng, 0.0).rotation;
     const Eigen::Vector3d position(u(rng), u(rng), u(rng));
     groundtruth.Add(t, Rigid3d(rotation, position));
-    estimated.Add(t, Rigid3d(rotation,
-                             position + Eigen::Vector3d(noise(rng), noise(rng), noise(rng))));
+    estimated.Add(
+        t, Rigid3d(rotation, position + Eigen::Vector3d(noise(rng), noise(rng), noise(rng))));
   }
   const TrajectoryEval eval = EvaluateTrajectory(estimated, groundtruth, {});
   EXPECT_EQ(eval.associated_pairs, n);
@@ -331,16 +332,16 @@ TEST(EvaluateTrajectory, MatchesTheTumBenchmarkDefinitionOnAHandComputedExample)
   //   mean = 0.7 / 6 = 0.1166667, median = (0.1 + 0.1) / 2 = 0.1 (numpy.median),
   //   std (numpy, population) = sqrt(0.0175 - 0.1166667²) = 0.0623610, min 0.05, max 0.2.
   // Timestamps: the estimate's are 10 ms late and associate with max_difference 0.02 s.
-  const std::vector<Eigen::Vector3d> octahedron = {{2, 0, 0},  {-2, 0, 0}, {0, 1, 0},
+  const std::vector<Eigen::Vector3d> octahedron = {{2, 0, 0},  {-2, 0, 0},  {0, 1, 0},
                                                    {0, -1, 0}, {0, 0, 0.5}, {0, 0, -0.5}};
   const Rigid3d m = Rigid3d(Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5), Eigen::Vector3d(3, -1, 2));
   Trajectory groundtruth, estimated;
   for (size_t k = 0; k < octahedron.size(); ++k) {
-    groundtruth.Add(static_cast<double>(k), Translation(octahedron[k].x(), octahedron[k].y(),
-                                                        octahedron[k].z()));
-    estimated.Add(k + 0.01, m.Inverse() * Translation(1.1 * octahedron[k].x(),
-                                                      1.1 * octahedron[k].y(),
-                                                      1.1 * octahedron[k].z()));
+    groundtruth.Add(static_cast<double>(k),
+                    Translation(octahedron[k].x(), octahedron[k].y(), octahedron[k].z()));
+    estimated.Add(k + 0.01,
+                  m.Inverse() * Translation(1.1 * octahedron[k].x(), 1.1 * octahedron[k].y(),
+                                            1.1 * octahedron[k].z()));
   }
   TrajectoryEvalOptions options;
   options.max_time_difference_s = 0.02;
