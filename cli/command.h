@@ -67,5 +67,6 @@ int RunHelp(int argc, char** argv);
 int RunVersion(int argc, char** argv);
 int RunScanInfo(int argc, char** argv);
 int RunSynth(int argc, char** argv);
+int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli
