@@ -4,7 +4,10 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstddef>
+#include <limits>
 #include <numbers>
+#include <queue>
 #include <stdexcept>
 #include <tuple>
 
@@ -112,33 +115,64 @@ std::vector<PosePair> AssociatePoses(const core::Trajectory& estimated,
   assert(max_time_difference_s > 0);
   const std::vector<core::TimedPose>& est = estimated.poses();
   const std::vector<core::TimedPose>& gt = groundtruth.poses();
-  // (|dt|, groundtruth time, estimated time) sorts as associate.py's (diff, a, b) tuples with
-  // a from the first list (groundtruth in evaluate_ate.py); indices stand in for the times
-  // (both sorted). Both lists are sorted, so each estimated pose's candidates form a window
-  // of the groundtruth found by one moving pointer, not an all-pairs product.
-  struct Candidate {
+  // associate.py sorts all candidate pairs by (|dt|, groundtruth stamp, estimated stamp) and
+  // takes them in turn: memory in proportion to the candidates, i.e. to max_time_difference_s
+  // (10 min at 30 Hz with a 10 s limit: 1e7). The same greedy choice, lazily: each unpaired
+  // estimated pose keeps one entry in a heap, its nearest not-yet-known-taken true pose
+  // (two pointers walking outwards: increasing |dt|, the earlier pose on a tie). The smallest
+  // entry whose true pose is still free is the smallest free candidate overall; an entry whose
+  // true pose was taken meanwhile moves on to that pose's next candidate.
+  std::vector<double> gt_times_s(gt.size());
+  for (size_t j = 0; j < gt.size(); ++j) gt_times_s[j] = gt[j].timestamp_s;
+  struct Cursor {
+    std::ptrdiff_t left, right;  // next candidates below / at or above the estimated time
+  };
+  std::vector<Cursor> cursors(est.size());
+  struct Entry {
     double dt_s;
     size_t gt, est;
-  };
-  std::vector<Candidate> candidates;
-  size_t first = 0;
-  for (size_t i = 0; i < est.size(); ++i) {
-    const double t = est[i].timestamp_s;
-    while (first < gt.size() && gt[first].timestamp_s < t - max_time_difference_s) ++first;
-    for (size_t j = first; j < gt.size() && gt[j].timestamp_s <= t + max_time_difference_s; ++j) {
-      const double dt_s = std::abs(gt[j].timestamp_s - t);
-      if (dt_s <= max_time_difference_s) candidates.push_back({dt_s, j, i});
+    // std::priority_queue pops the largest: invert for the smallest (dt, gt, est).
+    bool operator<(const Entry& o) const {
+      return std::tie(dt_s, gt, est) > std::tie(o.dt_s, o.gt, o.est);
     }
+  };
+  std::vector<char> gt_used(gt.size(), 0);
+  // The next candidate of estimated pose i (advancing its cursor), false when none is left.
+  const auto next_candidate = [&](size_t i, Entry& entry) {
+    Cursor& c = cursors[i];
+    const double t = est[i].timestamp_s;
+    const auto n = static_cast<std::ptrdiff_t>(gt.size());
+    while (c.left >= 0 && gt_used[static_cast<size_t>(c.left)]) --c.left;
+    while (c.right < n && gt_used[static_cast<size_t>(c.right)]) ++c.right;
+    const double left_dt_s = c.left >= 0 ? t - gt_times_s[static_cast<size_t>(c.left)]
+                                         : std::numeric_limits<double>::infinity();
+    const double right_dt_s = c.right < n ? gt_times_s[static_cast<size_t>(c.right)] - t
+                                          : std::numeric_limits<double>::infinity();
+    const bool take_left = left_dt_s <= right_dt_s;
+    const double dt_s = take_left ? left_dt_s : right_dt_s;
+    if (!(dt_s <= max_time_difference_s)) return false;
+    entry = {dt_s, static_cast<size_t>(take_left ? c.left-- : c.right++), i};
+    return true;
+  };
+  std::priority_queue<Entry> heap;
+  for (size_t i = 0; i < est.size(); ++i) {
+    const auto right = std::lower_bound(gt_times_s.begin(), gt_times_s.end(), est[i].timestamp_s);
+    cursors[i].right = right - gt_times_s.begin();
+    cursors[i].left = cursors[i].right - 1;
+    Entry entry;
+    if (next_candidate(i, entry)) heap.push(entry);
   }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tie(a.dt_s, a.gt, a.est) < std::tie(b.dt_s, b.gt, b.est);
-  });
-  std::vector<char> est_used(est.size(), 0), gt_used(gt.size(), 0);
   std::vector<PosePair> pairs;
-  for (const Candidate& c : candidates) {
-    if (est_used[c.est] || gt_used[c.gt]) continue;
-    est_used[c.est] = gt_used[c.gt] = 1;
-    pairs.push_back({c.est, c.gt});
+  while (!heap.empty()) {
+    const Entry top = heap.top();
+    heap.pop();
+    if (gt_used[top.gt]) {
+      Entry entry;
+      if (next_candidate(top.est, entry)) heap.push(entry);
+      continue;
+    }
+    gt_used[top.gt] = 1;
+    pairs.push_back({top.est, top.gt});
   }
   std::sort(pairs.begin(), pairs.end(), [](const PosePair& a, const PosePair& b) {
     return a.estimated_index < b.estimated_index;

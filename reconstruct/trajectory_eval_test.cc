@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -275,6 +276,74 @@ TEST(AssociatePoses, GreedyBySmallestDifferenceLikeAssociatePy) {
   pairs = AssociatePoses(tie_est, tie_gt, 0.2);
   ASSERT_EQ(pairs.size(), 1u);
   EXPECT_EQ(pairs[0].groundtruth_index, 0u);
+}
+
+// associate.py literally: every pair within the limit, sorted by (|dt|, groundtruth stamp,
+// estimated stamp), taken greedily.
+std::vector<PosePair> AssociateAllPairs(const Trajectory& estimated, const Trajectory& groundtruth,
+                                        double max_time_difference_s) {
+  struct Candidate {
+    double dt_s;
+    size_t gt, est;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t i = 0; i < estimated.size(); ++i) {
+    for (size_t j = 0; j < groundtruth.size(); ++j) {
+      const double dt_s =
+          std::abs(groundtruth.poses()[j].timestamp_s - estimated.poses()[i].timestamp_s);
+      if (dt_s <= max_time_difference_s) candidates.push_back({dt_s, j, i});
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.dt_s, a.gt, a.est) < std::tie(b.dt_s, b.gt, b.est);
+  });
+  std::vector<char> est_used(estimated.size(), 0), gt_used(groundtruth.size(), 0);
+  std::vector<PosePair> pairs;
+  for (const Candidate& c : candidates) {
+    if (est_used[c.est] || gt_used[c.gt]) continue;
+    est_used[c.est] = gt_used[c.gt] = 1;
+    pairs.push_back({c.est, c.gt});
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const PosePair& a, const PosePair& b) {
+    return a.estimated_index < b.estimated_index;
+  });
+  return pairs;
+}
+
+TEST(AssociatePoses, SameAsAllPairsGreedyOnRandomClocks) {
+  // Irregular clocks, rates from sparse to dense, limits from below to far above the frame
+  // spacing (where one pose has many candidates and the greedy order matters), times on a
+  // 1/64 s grid in half the trials so that exact ties occur.
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int pairs_seen = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const bool on_grid = trial % 2 == 0;
+    const auto random_clock = [&](int count, double mean_gap_s) {
+      Trajectory trajectory;
+      double t = 1000.0 + u(rng);
+      for (int k = 0; k < count; ++k) {
+        double gap = mean_gap_s * 2 * u(rng);
+        if (on_grid) gap = std::max(1.0, std::round(gap * 64)) / 64;
+        if (on_grid && k == 0) t = std::round(t * 64) / 64;
+        t += std::max(gap, 1e-4);
+        trajectory.Add(t, Rigid3d());
+      }
+      return trajectory;
+    };
+    const Trajectory groundtruth = random_clock(1 + trial % 60, 0.01 + 0.1 * u(rng));
+    const Trajectory estimated = random_clock(1 + (trial * 7) % 60, 0.01 + 0.1 * u(rng));
+    const double max_dt_s = on_grid ? std::round(1 + 20 * u(rng)) / 64 : 0.3 * u(rng) + 1e-3;
+    const std::vector<PosePair> expected = AssociateAllPairs(estimated, groundtruth, max_dt_s);
+    const std::vector<PosePair> actual = AssociatePoses(estimated, groundtruth, max_dt_s);
+    ASSERT_EQ(actual.size(), expected.size()) << "trial " << trial;
+    for (size_t k = 0; k < actual.size(); ++k) {
+      EXPECT_EQ(actual[k].estimated_index, expected[k].estimated_index) << "trial " << trial;
+      EXPECT_EQ(actual[k].groundtruth_index, expected[k].groundtruth_index) << "trial " << trial;
+    }
+    pairs_seen += static_cast<int>(actual.size());
+  }
+  EXPECT_GT(pairs_seen, 1000);  // the trials do associate
 }
 
 TEST(EvaluateTrajectory, ConstantRateDriftGivesTheAnalyticRpe) {
