@@ -48,7 +48,9 @@ struct PosePair {
 // whose timestamps differ by at most max_time_difference_s (s) is a candidate; candidates
 // are taken greedily by smallest |dt| (ties: earlier groundtruth, then earlier estimated
 // time, as the script's tuple sort), each pose used at most once. Returned in increasing
-// estimated time. Timestamps are compared as given (both on the same clock).
+// estimated time. Timestamps are compared as given (both on the same clock). The limit is
+// inclusive (the script's is strict: they differ only for a |dt| exactly at the limit).
+// Memory O(poses) whatever the limit (a lazy heap, not the script's list of all candidates).
 std::vector<PosePair> AssociatePoses(const core::Trajectory& estimated,
                                      const core::Trajectory& groundtruth,
                                      double max_time_difference_s);
