@@ -14,6 +14,8 @@ const std::vector<Command>& Commands() {
       {"scan-info", RunScanInfo, "validate a scan folder and summarise its streams"},
       {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
       {"reconstruct", RunReconstruct, "track the depth stream and fuse a coloured 3D model"},
+      {"eval-trajectory", RunEvalTrajectory,
+       "ATE and RPE of a TUM trajectory against a ground truth"},
   };
   return commands;
 }
@@ -93,7 +95,7 @@ int RunHelp(int argc, char** argv) {
                "Usage: heatwave <command> [options]\n\nCommands:\n";
   // std::cout, not printf: all output goes through one stream, whose errors main() checks.
   for (const Command& c : Commands()) {
-    std::cout << core::StringPrintf("  %-12s %s\n", c.name, c.summary);
+    std::cout << core::StringPrintf("  %-16s %s\n", c.name, c.summary);
   }
   std::cout << "\nRun 'heatwave <command> --help' for a command's options.\n"
                "Exit codes: 0 ok, 1 failure (bad input file, failed check, unwritable output), "

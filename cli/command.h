@@ -68,5 +68,6 @@ int RunVersion(int argc, char** argv);
 int RunScanInfo(int argc, char** argv);
 int RunSynth(int argc, char** argv);
 int RunReconstruct(int argc, char** argv);
+int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli
