@@ -4,6 +4,7 @@
 #include <random>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -312,8 +313,9 @@ TEST(BuildDepthPyramid, PlanePointsAndNormalsAreExactAtEveryLevel) {
         if (!IsValid(map.normals[i])) continue;
         ++normals;
         EXPECT_LT(map.normals[i].dot(map.points[i]), 0);  // faces the camera
-        const double cos = std::min(1.0f, -map.normals[i].dot(unit));
-        worst_normal = std::max(worst_normal, std::acos(cos));
+        // atan2 of sine and cosine: acos near 1 would read float rounding as 3e-4 rad.
+        const Eigen::Vector3d n = map.normals[i].cast<double>(), u = -unit.cast<double>();
+        worst_normal = std::max(worst_normal, std::atan2(n.cross(u).norm(), n.dot(u)));
       }
       EXPECT_EQ(normals, map.width * map.height) << "level " << l;
       EXPECT_LT(worst_point, c.point_tolerance_m) << "level " << l;

@@ -53,73 +53,115 @@ struct Sums {
   }
 };
 
+// A rigid transform as 12 floats, applied without Eigen's expression machinery (which the
+// compiler does not always inline in the hot loop).
+struct Affine {
+  float r[9];  // row-major
+  float t[3];
+  static Affine Of(const core::Rigid3d& transform) {
+    Affine a;
+    const Eigen::Matrix3d R = transform.rotation.toRotationMatrix();
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) a.r[3 * i + j] = static_cast<float>(R(i, j));
+      a.t[i] = static_cast<float>(transform.translation(i));
+    }
+    return a;
+  }
+};
+
 // Everything one pass needs, in float: the hot loop runs on it.
 struct Pass {
   const PointMap* live = nullptr;   // camera frame
   const PointMap* model = nullptr;  // world frame
   PinholeCamera model_camera;
-  Eigen::Matrix3f world_from_live_r;
-  Eigen::Vector3f world_from_live_t;
-  Eigen::Matrix3f model_from_world_r;
-  Eigen::Vector3f model_from_world_t;
+  Affine world_from_live;
+  Affine model_from_world;
   float max_distance_sq = 0;
   float min_normal_cos = 0;
   float huber = 0;
 };
+
+// The hot loop reads point maps as packed float triples.
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
 
 // Associates and accumulates rows [y0, y1) of the live map.
 Sums AccumulateRows(const Pass& pass, int y0, int y1) {
   const PointMap& live = *pass.live;
   const PointMap& model = *pass.model;
   const PinholeCamera& cam = pass.model_camera;
-  const Eigen::Matrix3f& R = pass.world_from_live_r;
-  const Eigen::Matrix3f Rt = R.transpose();
+  const float* R = pass.world_from_live.r;
+  const float* T = pass.world_from_live.t;
+  const float* M = pass.model_from_world.r;
+  const float* Mt = pass.model_from_world.t;
+  const float u_max = cam.width - 0.5f, v_max = cam.height - 0.5f;
   Sums sums;
   for (int y = y0; y < y1; ++y) {
-    // Float sums over one row (at most a few thousand terms), added in double per row.
-    std::array<float, 21> ata{};
-    std::array<float, 6> atb{};
+    // Float sums over one row (at most a few thousand terms), added in double per row:
+    // acc[a][b] = Σ w x_a x_b with x = [J; r; 0], a 7×8 block that the compiler turns into
+    // 4-float vector operations (only the upper triangle and column 6 are read).
+    alignas(16) float acc[7][8] = {};
     float sum_r_sq = 0;
+    int inliers = 0, valid = 0;
     const size_t row = live.Index(0, y);
+    const float* points = live.points[row].data();
+    const float* normals = live.normals[row].data();
     for (int x = 0; x < live.width; ++x) {
-      const Eigen::Vector3f& n_live = live.normals[row + x];
-      if (std::isnan(n_live.x())) continue;  // no normal (or no point)
-      ++sums.valid;
-      const Eigen::Vector3f& p_live = live.points[row + x];
-      const Eigen::Vector3f p_world = R * p_live + pass.world_from_live_t;
-      const Eigen::Vector3f p_model = pass.model_from_world_r * p_world + pass.model_from_world_t;
-      if (!(p_model.z() > 0)) continue;
-      const float inv_z = 1.0f / p_model.z();
-      const float u = cam.fx * p_model.x() * inv_z + cam.cx;
-      const float v = cam.fy * p_model.y() * inv_z + cam.cy;
+      const float* n = normals + 3 * x;
+      if (std::isnan(n[0])) continue;  // no normal (or no point)
+      ++valid;
+      const float* p = points + 3 * x;
+      // The live point in the world, then in the model camera.
+      const float wx = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + T[0];
+      const float wy = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + T[1];
+      const float wz = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + T[2];
+      const float mx = M[0] * wx + M[1] * wy + M[2] * wz + Mt[0];
+      const float my = M[3] * wx + M[4] * wy + M[5] * wz + Mt[1];
+      const float mz = M[6] * wx + M[7] * wy + M[8] * wz + Mt[2];
+      if (!(mz > 0)) continue;
+      const float inv_z = 1.0f / mz;
+      const float u = cam.fx * mx * inv_z + cam.cx;
+      const float v = cam.fy * my * inv_z + cam.cy;
       // Rounding to the nearest pixel; the range test also rejects NaN and huge values.
-      if (!(u > -0.5f && v > -0.5f && u < cam.width - 0.5f && v < cam.height - 0.5f)) continue;
+      if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
       const size_t j = model.Index(static_cast<int>(u + 0.5f), static_cast<int>(v + 0.5f));
-      const Eigen::Vector3f& n_model = model.normals[j];
-      if (std::isnan(n_model.x())) continue;
-      const Eigen::Vector3f d = p_world - model.points[j];
-      if (d.squaredNorm() > pass.max_distance_sq) continue;
-      if ((R * n_live).dot(n_model) < pass.min_normal_cos) continue;
-      const float r = n_model.dot(d);
+      const float* nm = model.normals[j].data();
+      if (std::isnan(nm[0])) continue;
+      const float* q = model.points[j].data();
+      const float dx = wx - q[0], dy = wy - q[1], dz = wz - q[2];
+      if (dx * dx + dy * dy + dz * dz > pass.max_distance_sq) continue;
+      // The model normal in the live camera frame, n_c = Rᵀ n_model: the angle gate compares
+      // it with the live normal there, and it is the Jacobian's translation part.
+      const float ncx = R[0] * nm[0] + R[3] * nm[1] + R[6] * nm[2];
+      const float ncy = R[1] * nm[0] + R[4] * nm[1] + R[7] * nm[2];
+      const float ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
+      if (ncx * n[0] + ncy * n[1] + ncz * n[2] < pass.min_normal_cos) continue;
+      const float r = nm[0] * dx + nm[1] * dy + nm[2] * dz;
       const float abs_r = std::abs(r);
       const float w = abs_r <= pass.huber ? 1.0f : pass.huber / abs_r;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
-      // dr/dω = p × n_c, dr/dv = n_c, with n_c the model normal in the live camera frame.
-      const Eigen::Vector3f n_c = Rt * n_model;
-      const Eigen::Vector3f p_cross_n = p_live.cross(n_c);
-      const float J[6] = {p_cross_n.x(), p_cross_n.y(), p_cross_n.z(), n_c.x(), n_c.y(), n_c.z()};
-      int k = 0;
-      for (int a = 0; a < 6; ++a) {
-        const float wJa = w * J[a];
-        for (int b = a; b < 6; ++b) ata[k++] += wJa * J[b];
-        atb[a] += wJa * r;
+      // dr/dω = p × n_c, dr/dv = n_c.
+      const float x_aug[8] = {p[1] * ncz - p[2] * ncy, p[2] * ncx - p[0] * ncz,
+                              p[0] * ncy - p[1] * ncx, ncx, ncy, ncz, r, 0.0f};
+      // Rows 0–3 need columns 0–7, rows 4–6 only columns 4–7 (upper triangle and column 6).
+      for (int a = 0; a < 4; ++a) {
+        const float w_xa = w * x_aug[a];
+        for (int b = 0; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
+      }
+      for (int a = 4; a < 7; ++a) {
+        const float w_xa = w * x_aug[a];
+        for (int b = 4; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
       }
       sum_r_sq += r * r;
-      ++sums.inliers;
+      ++inliers;
     }
-    for (int k = 0; k < 21; ++k) sums.ata[k] += double(ata[k]);
-    for (int k = 0; k < 6; ++k) sums.atb[k] += double(atb[k]);
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int b = a; b < 6; ++b) sums.ata[k++] += double(acc[a][b]);
+      sums.atb[a] += double(acc[a][6]);
+    }
     sums.sum_r_sq += double(sum_r_sq);
+    sums.inliers += inliers;
+    sums.valid += valid;
   }
   return sums;
 }
@@ -312,14 +354,12 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
     pass.live = &live_map;
     pass.model = &model_map;
     pass.model_camera = model.cameras[l];
-    pass.model_from_world_r = model_from_world.rotation.toRotationMatrix().cast<float>();
-    pass.model_from_world_t = model_from_world.translation.cast<float>();
+    pass.model_from_world = Affine::Of(model_from_world);
     pass.max_distance_sq = static_cast<float>(gate * gate);
     pass.min_normal_cos = min_normal_cos;
     pass.huber = static_cast<float>(options.huber_m);
     for (int it = 0; it < options.iterations[l]; ++it) {
-      pass.world_from_live_r = estimate.rotation.toRotationMatrix().cast<float>();
-      pass.world_from_live_t = estimate.translation.cast<float>();
+      pass.world_from_live = Affine::Of(estimate);
       last = Accumulate(pass, options.num_threads);
       last_A = NormalMatrix(last);
       ++result.iterations;
