@@ -40,7 +40,10 @@ class Undistorter {
 struct DepthFilterOptions {
   double min_depth_m = 0.3;  // nearer pixels are dropped, m, >= 0
   double max_depth_m = 4.0;  // farther pixels are dropped, m, > min_depth_m
-  // Bilateral filter (KinectFusion's, on valid pixels only; an invalid centre stays invalid).
+  // Bilateral filter (KinectFusion's, on valid pixels only; an invalid centre stays invalid),
+  // with symmetric support: a neighbour counts only with its mirror image through the centre
+  // (valid and within 3 range sigmas), so a window cut by the image border, a hole or an edge
+  // does not shift a slanted surface's depth (first-order bias, mm per pixel of gradient).
   int bilateral_radius_px = 2;         // window half-size, px, in [0, 10] (0: no filter)
   double bilateral_sigma_px = 1.5;     // spatial sigma, px, > 0
   double bilateral_sigma_depth_m = 0.03;  // range sigma at 1 m, m, > 0; grows as z² (the
@@ -51,6 +54,7 @@ struct DepthFilterOptions {
   int num_levels = 3;  // pyramid levels, each half the size of the previous, in [1, 5]
   // Normals from neighbours at most this far (fraction of depth) from the centre, in (0, 1].
   double normal_max_jump_fraction = 0.05;
+  int num_threads = 0;  // row bands run at once, >= 0 (0: hardware concurrency)
 
   std::string Check() const;
 };

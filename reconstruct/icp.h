@@ -70,16 +70,19 @@ enum class IcpStatus {
 };
 std::string IcpStatusName(IcpStatus status);  // "ok", "too_few_inliers", ...
 
+// The figures below come from the last association pass (the finest level used, at the pose
+// before that pass's update, which is below min_update_* once converged).
 struct IcpResult {
   IcpStatus status = IcpStatus::kOk;
   core::Rigid3d world_from_camera;  // the estimate (also returned when status is not ok)
   int inliers = 0;                  // at the finest level used
-  int valid_points = 0;             // valid live points at that level
+  int valid_points = 0;             // live points with a normal at that level (the candidates)
   double residual_rms_m = 0;        // RMS point-to-plane residual of the inliers, m
-  double condition = 0;             // of the last normal matrix
+  double condition = 0;             // of the last normal matrix (inf when singular)
   int iterations = 0;               // total over levels
-  // The 6×6 normal matrix of the final iteration (tangent [rotation; translation]), whose
-  // inverse times residual_rms_m² approximates the pose covariance.
+  // The 6×6 normal matrix Σ w J Jᵀ of the final iteration, in the tangent the updates use:
+  // world_from_camera · Exp(ξ), ξ = [rotation (rad); translation (m)] in the camera frame
+  // (core::Rigid3d::Exp). Its inverse times residual_rms_m² approximates the covariance of ξ.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
@@ -87,8 +90,11 @@ struct IcpResult {
 // (the constant-velocity prediction). Per level, coarse to fine: each live point is moved to
 // the world by the current estimate, projected into the model camera (model.world_from_camera),
 // paired with the model point at that pixel when it passes the gates, and the pose updated
-// by a Gauss-Newton step of the Huber-weighted point-to-plane error (linearised rotation).
-// Never throws; failures are in status.
+// by a Gauss-Newton step of the Huber-weighted point-to-plane error (linearised rotation,
+// applied on the right in the camera frame: world_from_camera · Exp(ξ)). Live points need a
+// normal (for the angle gate). The 6×6 system is summed over 8-row chunks in float, then in
+// double in row order: the result does not depend on num_threads. Checks, in this order:
+// too few inliers, condition, residual, jump. Never throws; failures are in status.
 IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
                        const core::Rigid3d& initial_world_from_camera, const IcpOptions& options);
 

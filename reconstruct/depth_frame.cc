@@ -1,0 +1,380 @@
+#include "reconstruct/depth_frame.h"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
+
+#include "reconstruct/row_bands.h"
+
+namespace hw::reconstruct {
+namespace {
+
+std::string Fail(const char* field, double value, const char* constraint) {
+  std::ostringstream s;
+  s << field << ": must be " << constraint << ", got " << value;
+  return s.str();
+}
+
+// The bilateral's range weight of t² = (dz / sigma)²: (1 − t²/32)^16, within 0.02 of
+// KinectFusion's exp(−t²/2) and cheap (four squarings, no exp, no table, no branch), cut to 0
+// beyond 3 sigma (where the Gaussian is < 0.011).
+constexpr float kRangeCutoffSq = 9.0f;
+inline float RangeWeight(float t_sq) {
+  float a = 1.0f - t_sq * (1.0f / 32.0f);
+  a *= a;
+  a *= a;
+  a *= a;
+  return a * a;
+}
+
+// Four floats at a time (GCC/Clang vector extensions: SSE on x86, NEON on ARM, scalar code
+// elsewhere): the bilateral's inner loop, which -O2 does not vectorise by itself.
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+inline Float4 Load(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+inline void Store(float* p, Float4 v) { std::memcpy(p, &v, sizeof(v)); }
+inline Float4 Splat(float f) { return Float4{f, f, f, f}; }
+// `v` where mask is all ones, else +0.
+inline Float4 Masked(Float4 v, Int4 mask) { return reinterpret_cast<Float4>(reinterpret_cast<Int4>(v) & mask); }
+// RangeWeight, with t² clamped to the cutoff so that masked-off lanes stay finite.
+inline Float4 RangeWeight4(Float4 t_sq) {
+  const Float4 cutoff = Splat(kRangeCutoffSq);
+  const Float4 clamped = t_sq < cutoff ? t_sq : cutoff;
+  Float4 a = 1.0f - clamped * (1.0f / 32.0f);
+  a *= a;
+  a *= a;
+  a *= a;
+  return a * a;
+}
+
+// Range limits: depths outside [min, max] (and NaN, inf, negatives) become 0.
+cv::Mat RangeLimited(const cv::Mat& depth_m, float min_m, float max_m) {
+  cv::Mat out(depth_m.size(), CV_32FC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* src = depth_m.ptr<float>(y);
+    float* dst = out.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      const float z = src[x];
+      dst[x] = (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
+    }
+  }
+  return out;
+}
+
+// Drops flying pixels: a valid pixel with a valid 4-neighbour more than `fraction` of its
+// depth away.
+cv::Mat EdgeCleaned(const cv::Mat& depth_m, float fraction, int num_threads) {
+  cv::Mat out(depth_m.size(), CV_32FC1);
+  const int w = depth_m.cols, h = depth_m.rows;
+  ForEachBand(h, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* row = depth_m.ptr<float>(y);
+      const float* up = y > 0 ? depth_m.ptr<float>(y - 1) : nullptr;
+      const float* down = y + 1 < h ? depth_m.ptr<float>(y + 1) : nullptr;
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        const float z = row[x];
+        dst[x] = z;
+        if (z <= 0) continue;
+        const float limit = fraction * z;
+        auto jumps = [&](float n) { return n > 0 && std::abs(n - z) > limit; };
+        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) ||
+            (up != nullptr && jumps(up[x])) || (down != nullptr && jumps(down[x]))) {
+          dst[x] = 0;
+        }
+      }
+    }
+  });
+  return out;
+}
+
+// KinectFusion's bilateral filter over valid pixels (invalid centres stay 0), with symmetric
+// support: a neighbour counts only together with its mirror image through the centre. A
+// window cut on one side (image border, hole, depth edge) would otherwise average a slanted
+// surface's depth off-centre, a first-order bias of the depth gradient (mm to cm per pixel on
+// a wall seen at a grazing angle) that shifts ICP's estimate; pairs cancel it to second order.
+// Computed a row at a time, one window offset at a time, branch-free in the inner loop.
+cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
+  const int r = options.bilateral_radius_px;
+  if (r == 0) return depth_m.clone();
+  const int w = depth_m.cols, h = depth_m.rows;
+  // Half of the window: offsets (dx, dy) with dy > 0, or dy == 0 and dx > 0; their mirrors
+  // (-dx, -dy) make up the other half.
+  struct Offset {
+    int dx, dy;
+    float weight;
+  };
+  std::vector<Offset> half;
+  const double inv_two_sigma_sq = 1.0 / (2.0 * options.bilateral_sigma_px * options.bilateral_sigma_px);
+  for (int dy = 0; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      if (dy == 0 && dx <= 0) continue;
+      half.push_back({dx, dy, static_cast<float>(std::exp(-(dx * dx + dy * dy) * inv_two_sigma_sq))});
+    }
+  }
+  const float sigma_depth = static_cast<float>(options.bilateral_sigma_depth_m);
+  cv::Mat out(depth_m.size(), CV_32FC1);
+  ForEachBand(h, options.num_threads, [&](int y0, int y1) {
+    std::vector<float> sum_w(w), sum_wz(w), inv_sigma(w);
+    for (int y = y0; y < y1; ++y) {
+      const float* c = depth_m.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        const float z = c[x];
+        inv_sigma[x] = z > 0 ? 1.0f / (sigma_depth * z * z) : 0.0f;
+        sum_w[x] = 1;  // the centre: spatial and range weights 1
+        sum_wz[x] = z;
+      }
+      for (const Offset& o : half) {
+        if (y + o.dy >= h || y - o.dy < 0) continue;  // the pair needs both rows
+        const float* a = depth_m.ptr<float>(y + o.dy) + o.dx;
+        const float* b = depth_m.ptr<float>(y - o.dy) - o.dx;
+        const int reach = std::abs(o.dx);
+        const Float4 weight4 = Splat(o.weight);
+        int x = reach;
+        for (; x + 4 <= w - reach; x += 4) {
+          const Float4 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
+          const Float4 inv = Load(inv_sigma.data() + x);
+          const Float4 ta = (za - z) * inv, tb = (zb - z) * inv;
+          const Float4 ta_sq = ta * ta, tb_sq = tb * tb;
+          // Both valid and on this side of any edge, or neither counts.
+          const Int4 pair = (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
+          const Float4 wa = Masked(weight4 * RangeWeight4(ta_sq), pair);
+          const Float4 wb = Masked(weight4 * RangeWeight4(tb_sq), pair);
+          Store(sum_w.data() + x, Load(sum_w.data() + x) + wa + wb);
+          Store(sum_wz.data() + x, Load(sum_wz.data() + x) + wa * za + wb * zb);
+        }
+        for (; x < w - reach; ++x) {
+          const float z = c[x], za = a[x], zb = b[x];
+          const float ta = (za - z) * inv_sigma[x], tb = (zb - z) * inv_sigma[x];
+          const float ta_sq = ta * ta, tb_sq = tb * tb;
+          if (!(za > 0 && zb > 0 && ta_sq < kRangeCutoffSq && tb_sq < kRangeCutoffSq)) continue;
+          const float wa = o.weight * RangeWeight(ta_sq), wb = o.weight * RangeWeight(tb_sq);
+          sum_w[x] += wa + wb;
+          sum_wz[x] += wa * za + wb * zb;
+        }
+      }
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < w; ++x) dst[x] = c[x] > 0 ? sum_wz[x] / sum_w[x] : 0.0f;
+    }
+  });
+  return out;
+}
+
+// KinectFusion's pyramid step: the mean of each 2×2 block over the pixels within 3 range
+// sigmas of the block's first valid pixel, so that a block straddling an edge takes one side.
+cv::Mat HalfDepth(const cv::Mat& depth_m, float sigma_depth_m, int num_threads) {
+  const int w = depth_m.cols / 2, h = depth_m.rows / 2;
+  cv::Mat out(h, w, CV_32FC1);
+  ForEachBand(h, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* top = depth_m.ptr<float>(2 * y);
+      const float* bottom = depth_m.ptr<float>(2 * y + 1);
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        const float block[4] = {top[2 * x], top[2 * x + 1], bottom[2 * x], bottom[2 * x + 1]};
+        float first = 0;
+        for (float z : block) {
+          if (z > 0) {
+            first = z;
+            break;
+          }
+        }
+        if (first == 0) {
+          dst[x] = 0;
+          continue;
+        }
+        const float limit = 3.0f * sigma_depth_m * first * first;
+        float sum = 0;
+        int n = 0;
+        for (float z : block) {
+          if (z > 0 && std::abs(z - first) <= limit) {
+            sum += z;
+            ++n;
+          }
+        }
+        dst[x] = sum / static_cast<float>(n);
+      }
+    }
+  });
+  return out;
+}
+
+// Points by unprojection, normals from the cross product of central differences (one-sided
+// where a neighbour is missing or jumps), oriented towards the camera.
+PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_jump_fraction,
+               int num_threads) {
+  const int w = depth_m.cols, h = depth_m.rows;
+  PointMap map(w, h);
+  const float inv_fx = 1.0f / camera.fx, inv_fy = 1.0f / camera.fy;
+  ForEachBand(h, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* row = depth_m.ptr<float>(y);
+      Eigen::Vector3f* points = map.points.data() + map.Index(0, y);
+      for (int x = 0; x < w; ++x) {
+        const float z = row[x];
+        if (z > 0) points[x] = {(x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z};
+      }
+    }
+  });
+  // Normals read the neighbouring rows' points: a second pass after all points exist.
+  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+  ForEachBand(h, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* row = map.points[map.Index(0, y)].data();
+      const float* up = y > 0 ? map.points[map.Index(0, y - 1)].data() : nullptr;
+      const float* down = y + 1 < h ? map.points[map.Index(0, y + 1)].data() : nullptr;
+      float* normals = map.normals[map.Index(0, y)].data();
+      for (int x = 0; x < w; ++x) {
+        const float* p = row + 3 * x;
+        const float z = p[2];
+        if (std::isnan(z)) continue;
+        const float limit = max_jump_fraction * z;
+        // A neighbour is usable when valid (NaN fails the test) and within the jump limit.
+        const float* right = x + 1 < w ? p + 3 : nullptr;
+        const float* left = x > 0 ? p - 3 : nullptr;
+        const float* below = down != nullptr ? down + 3 * x : nullptr;
+        const float* above = up != nullptr ? up + 3 * x : nullptr;
+        if (right != nullptr && !(std::abs(right[2] - z) <= limit)) right = nullptr;
+        if (left != nullptr && !(std::abs(left[2] - z) <= limit)) left = nullptr;
+        if (below != nullptr && !(std::abs(below[2] - z) <= limit)) below = nullptr;
+        if (above != nullptr && !(std::abs(above[2] - z) <= limit)) above = nullptr;
+        // Central differences, one-sided where a side is missing.
+        if (right == nullptr && left == nullptr) continue;
+        if (below == nullptr && above == nullptr) continue;
+        const float* a = right != nullptr ? right : p;
+        const float* b = left != nullptr ? left : p;
+        const float* c = below != nullptr ? below : p;
+        const float* d = above != nullptr ? above : p;
+        const float ux = a[0] - b[0], uy = a[1] - b[1], uz = a[2] - b[2];
+        const float vx = c[0] - d[0], vy = c[1] - d[1], vz = c[2] - d[2];
+        float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+        const float norm_sq = nx * nx + ny * ny + nz * nz;
+        if (!(norm_sq > 0)) continue;
+        // Towards the camera: n · p < 0.
+        const float scale = (nx * p[0] + ny * p[1] + nz * z > 0 ? -1.0f : 1.0f) / std::sqrt(norm_sq);
+        normals[3 * x] = nx * scale;
+        normals[3 * x + 1] = ny * scale;
+        normals[3 * x + 2] = nz * scale;
+      }
+    }
+  });
+  return map;
+}
+
+}  // namespace
+
+Undistorter::Undistorter(const core::CameraModel& camera) : pinhole_(PinholeCamera::Of(camera)) {
+  identity_ = camera.type == core::CameraModelType::kPinhole ||
+              std::all_of(camera.distortion.begin(), camera.distortion.end(),
+                          [](double k) { return k == 0; });
+  if (identity_) return;
+  map_x_.create(camera.height, camera.width, CV_32FC1);
+  map_y_.create(camera.height, camera.width, CV_32FC1);
+  for (int v = 0; v < camera.height; ++v) {
+    float* mx = map_x_.ptr<float>(v);
+    float* my = map_y_.ptr<float>(v);
+    for (int u = 0; u < camera.width; ++u) {
+      // The pinhole pixel's ray at z = 1, seen through the real lens.
+      const Eigen::Vector3d ray((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
+      const Eigen::Vector2d distorted = camera.Project(ray);
+      mx[u] = static_cast<float>(distorted.x());
+      my[u] = static_cast<float>(distorted.y());
+    }
+  }
+}
+
+cv::Mat Undistorter::UndistortDepth(const cv::Mat& depth_m) const {
+  assert(depth_m.type() == CV_32FC1);
+  if (identity_) return depth_m;
+  assert(depth_m.cols == pinhole_.width && depth_m.rows == pinhole_.height);
+  cv::Mat out;
+  // Nearest rounds the map to the closest pixel; outside the image: 0 = no depth.
+  cv::remap(depth_m, out, map_x_, map_y_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+  return out;
+}
+
+cv::Mat Undistorter::UndistortColour(const cv::Mat& rgb) const {
+  assert(rgb.type() == CV_8UC3);
+  if (identity_) return rgb;
+  assert(rgb.cols == pinhole_.width && rgb.rows == pinhole_.height);
+  cv::Mat out;
+  cv::remap(rgb, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0));
+  return out;
+}
+
+std::string DepthFilterOptions::Check() const {
+  if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) {
+    return Fail("min_depth_m", min_depth_m, ">= 0 m and finite");
+  }
+  if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
+    return Fail("max_depth_m", max_depth_m, "> min_depth_m m and finite");
+  }
+  if (bilateral_radius_px < 0 || bilateral_radius_px > 10) {
+    return Fail("bilateral_radius_px", bilateral_radius_px, "in [0, 10] px");
+  }
+  if (!(bilateral_sigma_px > 0) || !std::isfinite(bilateral_sigma_px)) {
+    return Fail("bilateral_sigma_px", bilateral_sigma_px, "> 0 px and finite");
+  }
+  if (!(bilateral_sigma_depth_m > 0) || !std::isfinite(bilateral_sigma_depth_m)) {
+    return Fail("bilateral_sigma_depth_m", bilateral_sigma_depth_m, "> 0 m and finite");
+  }
+  if (!(edge_jump_fraction > 0 && edge_jump_fraction <= 1)) {
+    return Fail("edge_jump_fraction", edge_jump_fraction, "in (0, 1]");
+  }
+  if (num_levels < 1 || num_levels > 5) return Fail("num_levels", num_levels, "in [1, 5]");
+  if (!(normal_max_jump_fraction > 0 && normal_max_jump_fraction <= 1)) {
+    return Fail("normal_max_jump_fraction", normal_max_jump_fraction, "in (0, 1]");
+  }
+  if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0 (0: hardware concurrency)");
+  return "";
+}
+
+DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
+                               const DepthFilterOptions& options) {
+  assert(options.Check().empty());
+  assert(depth_m.type() == CV_32FC1);
+  assert(depth_m.cols == camera.width && depth_m.rows == camera.height);
+  DepthPyramid pyramid;
+  pyramid.raw_depth_m = RangeLimited(depth_m, static_cast<float>(options.min_depth_m),
+                                     static_cast<float>(options.max_depth_m));
+  // A fraction of 1 keeps all (the header's contract), though |dz| > z is possible.
+  if (options.edge_jump_fraction < 1) {
+    pyramid.raw_depth_m = EdgeCleaned(pyramid.raw_depth_m,
+                                      static_cast<float>(options.edge_jump_fraction),
+                                      options.num_threads);
+  }
+  const float normal_jump = static_cast<float>(options.normal_max_jump_fraction);
+  pyramid.levels.reserve(options.num_levels);
+  DepthLevel level0;
+  level0.camera = camera;
+  level0.depth_m = Bilateral(pyramid.raw_depth_m, options);
+  level0.map = MapOf(level0.depth_m, camera, normal_jump, options.num_threads);
+  pyramid.levels.push_back(std::move(level0));
+  for (int l = 1; l < options.num_levels; ++l) {
+    const DepthLevel& above = pyramid.levels.back();
+    if (above.depth_m.cols < 2 || above.depth_m.rows < 2) break;  // nothing left to halve
+    DepthLevel level;
+    level.camera = above.camera.Half();
+    level.depth_m = HalfDepth(above.depth_m, static_cast<float>(options.bilateral_sigma_depth_m),
+                              options.num_threads);
+    level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
+    pyramid.levels.push_back(std::move(level));
+  }
+  return pyramid;
+}
+
+}  // namespace hw::reconstruct

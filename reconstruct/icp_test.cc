@@ -1,0 +1,329 @@
+#include "reconstruct/icp.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace hw::reconstruct {
+namespace {
+
+using ::testing::HasSubstr;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+constexpr double kDeg = M_PI / 180.0;
+
+PinholeCamera SmallCamera() { return PinholeCamera::Of(core::CameraModel::Pinhole(160, 120, 140, 140)); }
+
+// A scene of planes {p : n · p = d} (world frame, n unit, facing the camera) seen from inside:
+// each ray takes the nearest plane in front of it. Three orthogonal walls x = 0, y = 0, z = 0
+// seen from inside the positive octant make a box corner, which constrains all six degrees
+// of freedom; one wall alone leaves three free.
+struct Scene {
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<double> offsets;
+
+  static Scene Corner() { return {{Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()}, {0, 0, 0}}; }
+  static Scene Wall() { return {{Eigen::Vector3d::UnitZ()}, {0}}; }
+
+  // Distance along the ray (origin + t dir) to the nearest plane it meets from the front, and
+  // that plane; false when it meets none.
+  bool Hit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double& t, int& plane) const {
+    t = std::numeric_limits<double>::infinity();
+    plane = -1;
+    for (size_t k = 0; k < normals.size(); ++k) {
+      const double along = normals[k].dot(dir);
+      if (along >= 0) continue;  // parallel, or leaving through the plane's back
+      const double tk = (offsets[k] - normals[k].dot(origin)) / along;
+      if (tk > 0 && tk < t) {
+        t = tk;
+        plane = static_cast<int>(k);
+      }
+    }
+    return plane >= 0;
+  }
+
+  // Depth image (z along the optical axis, m) seen from world_from_camera.
+  cv::Mat Depth(const PinholeCamera& camera, const core::Rigid3d& world_from_camera) const {
+    cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
+    const Eigen::Matrix3d R = world_from_camera.rotation.toRotationMatrix();
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        // The ray with z = 1 in the camera: t along it is the depth.
+        const Eigen::Vector3d ray((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1);
+        double t;
+        int plane;
+        if (Hit(world_from_camera.translation, R * ray, t, plane)) depth.at<float>(v, u) = float(t);
+      }
+    }
+    return depth;
+  }
+
+  // The exact world-frame point and normal maps seen from world_from_camera (what a perfect
+  // raycast of the model gives).
+  PointMap Map(const PinholeCamera& camera, const core::Rigid3d& world_from_camera) const {
+    PointMap map(camera.width, camera.height);
+    const Eigen::Matrix3d R = world_from_camera.rotation.toRotationMatrix();
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const Eigen::Vector3d ray((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1);
+        const Eigen::Vector3d dir = R * ray;
+        double t;
+        int plane;
+        if (!Hit(world_from_camera.translation, dir, t, plane)) continue;
+        map.points[map.Index(u, v)] = (world_from_camera.translation + t * dir).cast<float>();
+        map.normals[map.Index(u, v)] = normals[plane].cast<float>();
+      }
+    }
+    return map;
+  }
+};
+
+// A camera at `eye` looking at `target`, y down, with world +z up.
+core::Rigid3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d y = -(up - up.dot(z) * z).normalized();
+  const Eigen::Vector3d x = y.cross(z);
+  Eigen::Matrix3d R;
+  R << x, y, z;
+  return core::Rigid3d(Eigen::Quaterniond(R), eye);
+}
+
+core::Rigid3d Reference() { return LookAt({1.6, 1.3, 1.2}, {0.2, 0.25, 0.15}); }
+
+// A motion of 4.1 cm and 3° between the reference (the model's view, and the initial guess)
+// and the live camera.
+core::Rigid3d Motion() {
+  Vector6d xi;
+  xi << Eigen::Vector3d(0.4, -0.7, 0.6).normalized() * 3 * kDeg, 0.03, -0.02, 0.02;
+  return core::Rigid3d::Exp(xi);
+}
+
+ModelPyramid ModelOf(const Scene& scene, const core::Rigid3d& world_from_camera) {
+  return BuildModelPyramid(scene.Map(SmallCamera(), world_from_camera), SmallCamera(),
+                           world_from_camera, 3);
+}
+
+DepthPyramid LiveOf(const Scene& scene, const core::Rigid3d& world_from_camera, double noise_m = 0,
+                    unsigned seed = 1) {
+  cv::Mat depth = scene.Depth(SmallCamera(), world_from_camera);
+  if (noise_m > 0) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> noise(0.0f, static_cast<float>(noise_m));
+    for (int v = 0; v < depth.rows; ++v) {
+      for (int u = 0; u < depth.cols; ++u) {
+        if (depth.at<float>(v, u) > 0) depth.at<float>(v, u) += noise(rng);
+      }
+    }
+  }
+  return BuildDepthPyramid(depth, SmallCamera(), DepthFilterOptions());
+}
+
+TEST(IcpOptions, CheckNamesTheField) {
+  EXPECT_EQ(IcpOptions().Check(), "");
+  auto with = [](auto change) {
+    IcpOptions o;
+    change(o);
+    return o.Check();
+  };
+  EXPECT_THAT(with([](auto& o) { o.iterations = {0, -1, 0}; }), HasSubstr("iterations[1]"));
+  EXPECT_THAT(with([](auto& o) { o.iterations = {0, 0, 0}; }), HasSubstr("iterations"));
+  EXPECT_THAT(with([](auto& o) { o.max_distance_m = 0; }), HasSubstr("max_distance_m"));
+  EXPECT_THAT(with([](auto& o) { o.min_distance_m = 0.1; }), HasSubstr("min_distance_m"));
+  EXPECT_THAT(with([](auto& o) { o.max_normal_angle_deg = 91; }), HasSubstr("max_normal_angle_deg"));
+  EXPECT_THAT(with([](auto& o) { o.huber_m = NAN; }), HasSubstr("huber_m"));
+  EXPECT_THAT(with([](auto& o) { o.min_update_rad = -1; }), HasSubstr("min_update_rad"));
+  EXPECT_THAT(with([](auto& o) { o.min_update_m = -1; }), HasSubstr("min_update_m"));
+  EXPECT_THAT(with([](auto& o) { o.min_inlier_fraction = 1.5; }), HasSubstr("min_inlier_fraction"));
+  EXPECT_THAT(with([](auto& o) { o.min_inliers = 5; }), HasSubstr("min_inliers"));
+  EXPECT_THAT(with([](auto& o) { o.max_condition = 1; }), HasSubstr("max_condition"));
+  EXPECT_THAT(with([](auto& o) { o.max_residual_m = 0; }), HasSubstr("max_residual_m"));
+  EXPECT_THAT(with([](auto& o) { o.max_jump_m = 0; }), HasSubstr("max_jump_m"));
+  EXPECT_THAT(with([](auto& o) { o.max_jump_deg = 0; }), HasSubstr("max_jump_deg"));
+  EXPECT_THAT(with([](auto& o) { o.num_threads = -2; }), HasSubstr("num_threads"));
+  EXPECT_EQ(IcpStatusName(IcpStatus::kIllConditioned), "ill_conditioned");
+  EXPECT_EQ(IcpStatusName(IcpStatus::kImplausibleJump), "implausible_jump");
+}
+
+TEST(BuildModelPyramid, KeepsOneBlockPointNearestTheMeanDepth) {
+  const core::Rigid3d pose = Reference();
+  const PointMap level0 = Scene::Corner().Map(SmallCamera(), pose);
+  const ModelPyramid model = BuildModelPyramid(level0, SmallCamera(), pose, 3);
+  ASSERT_EQ(model.maps.size(), 3u);
+  ASSERT_EQ(model.cameras.size(), 3u);
+  EXPECT_EQ(model.cameras[2].width, 40);
+  EXPECT_EQ(model.cameras[1].cx, SmallCamera().Half().cx);
+  const core::Rigid3d camera_from_world = pose.Inverse();
+  for (int l = 1; l < 3; ++l) {
+    const PointMap& above = model.maps[l - 1];
+    const PointMap& map = model.maps[l];
+    for (int y = 0; y < map.height; ++y) {
+      for (int x = 0; x < map.width; ++x) {
+        std::vector<double> depths;
+        std::vector<Eigen::Vector3f> points;
+        for (int k = 0; k < 4; ++k) {
+          const Eigen::Vector3f& p = above.points[above.Index(2 * x + k % 2, 2 * y + k / 2)];
+          if (!IsValid(p)) continue;
+          points.push_back(p);
+          depths.push_back((camera_from_world * p.cast<double>()).z());
+        }
+        const Eigen::Vector3f& chosen = map.points[map.Index(x, y)];
+        ASSERT_EQ(IsValid(chosen), !points.empty());
+        if (points.empty()) continue;
+        double mean = 0;
+        for (double d : depths) mean += d / depths.size();
+        const double chosen_depth = (camera_from_world * chosen.cast<double>()).z();
+        bool from_block = false;
+        for (size_t k = 0; k < points.size(); ++k) {
+          from_block = from_block || points[k] == chosen;
+          EXPECT_LE(std::abs(chosen_depth - mean), std::abs(depths[k] - mean) + 1e-6);
+        }
+        EXPECT_TRUE(from_block);
+      }
+    }
+  }
+}
+
+// Noise-free: at the true pose projective association pairs every live pixel with the model
+// point of the same pixel, i.e. the same surface point, so every residual vanishes and the
+// truth is a fixed point of the iteration (without the bilateral filter the error is 0 to
+// float rounding). What is left is the filter's rounding of the corner's creases (pixels
+// within 2 px of a crease lifted by up to ~1 mm; measured effect 40 µm, 0.002°), float
+// rounding (1e-7 × 2 m) and the stop threshold (1e-5): 0.5 mm and 0.05° leave a margin of
+// 10× while catching any biased filter or Jacobian (a one-sided filter window at the image
+// border alone gave 0.9 mm here).
+TEST(AlignToModel, RecoversTheCornersPoseFromAFewCentimetresAndDegrees) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  const core::Rigid3d truth = reference * Motion();
+  const IcpResult result =
+      AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, IcpOptions());
+  EXPECT_EQ(result.status, IcpStatus::kOk) << IcpStatusName(result.status);
+  const core::PoseError start = core::ComparePoses(reference, truth);
+  EXPECT_GT(start.translation_m, 0.04);
+  EXPECT_GT(start.rotation_rad, 2.9 * kDeg);
+  const core::PoseError error = core::ComparePoses(result.world_from_camera, truth);
+  EXPECT_LT(error.translation_m, 0.0005);
+  EXPECT_LT(error.rotation_rad, 0.05 * kDeg);
+  EXPECT_GT(result.inliers, 0.9 * result.valid_points);
+  EXPECT_LT(result.residual_rms_m, 0.001);
+  EXPECT_LT(result.condition, 100);
+  EXPECT_GT(result.iterations, 3);
+  EXPECT_GT(result.information.trace(), 0);
+}
+
+// Depth noise sigma on the live frame (the model is exact): the estimate is a weighted
+// least-squares one whose tangent covariance is about sigma² A⁻¹ (A = result.information;
+// the bilateral filter averages the noise but, being a linear smoother, not the estimate's
+// precision). Each component of the error must be within 5 standard deviations plus the
+// noise-free floor (40 µm, 0.002°: the filter rounding the corner's creases), for two noise
+// levels 4× apart, so the error scales with the noise.
+TEST(AlignToModel, ErrorWithNoiseScalesWithTheNoise) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  const core::Rigid3d truth = reference * Motion();
+  for (const double sigma : {0.001, 0.004}) {
+    const IcpResult result = AlignToModel(LiveOf(scene, truth, sigma, 5), ModelOf(scene, reference),
+                                          reference, IcpOptions());
+    ASSERT_EQ(result.status, IcpStatus::kOk) << IcpStatusName(result.status) << " sigma " << sigma;
+    const Vector6d error = (truth.Inverse() * result.world_from_camera).Log();
+    const Eigen::Matrix<double, 6, 6> covariance = sigma * sigma * result.information.inverse();
+    for (int k = 0; k < 6; ++k) {
+      EXPECT_LT(std::abs(error(k)), 5 * std::sqrt(covariance(k, k)) + 5e-5)
+          << "component " << k << " sigma " << sigma;
+    }
+    const core::PoseError pose_error = core::ComparePoses(result.world_from_camera, truth);
+    EXPECT_LT(pose_error.translation_m, sigma) << "sigma " << sigma;
+  }
+}
+
+TEST(AlignToModel, ThreadCountDoesNotChangeTheResult) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  const DepthPyramid live = LiveOf(scene, reference * Motion(), 0.002);
+  const ModelPyramid model = ModelOf(scene, reference);
+  IcpOptions one, three;
+  one.num_threads = 1;
+  three.num_threads = 3;
+  const IcpResult a = AlignToModel(live, model, reference, one);
+  const IcpResult b = AlignToModel(live, model, reference, three);
+  EXPECT_EQ(a.world_from_camera.translation, b.world_from_camera.translation);
+  EXPECT_EQ(a.world_from_camera.rotation.coeffs(), b.world_from_camera.rotation.coeffs());
+  EXPECT_EQ(a.information, b.information);
+}
+
+// A single wall constrains only the motion along its normal and the two tilts: the normal
+// matrix has three (near) zero eigenvalues.
+TEST(AlignToModel, AFlatWallIsIllConditioned) {
+  const Scene scene = Scene::Wall();
+  const core::Rigid3d reference = LookAt({0.3, 0.2, 1.5}, {0.35, 0.3, 0});
+  Vector6d xi;
+  xi << 0.01, -0.01, 0.005, 0.01, 0.01, 0.01;
+  const IcpResult result = AlignToModel(LiveOf(scene, reference * core::Rigid3d::Exp(xi)),
+                                        ModelOf(scene, reference), reference, IcpOptions());
+  EXPECT_EQ(result.status, IcpStatus::kIllConditioned) << IcpStatusName(result.status);
+  EXPECT_GT(result.condition, IcpOptions().max_condition);
+  EXPECT_GT(result.inliers, 0.9 * result.valid_points);  // not a failure of association
+}
+
+TEST(AlignToModel, AJumpBeyondTheLimitIsImplausible) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  const core::Rigid3d truth = reference * Motion();
+  IcpOptions options;
+  options.max_jump_m = 0.02;  // the true motion is 4.1 cm
+  const IcpResult result = AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options);
+  EXPECT_EQ(result.status, IcpStatus::kImplausibleJump) << IcpStatusName(result.status);
+  // Still the (good) estimate: the check judges it, it does not discard it.
+  EXPECT_LT(core::ComparePoses(result.world_from_camera, truth).translation_m, 0.0005);
+  options = IcpOptions();
+  options.max_jump_deg = 2;  // the true rotation is 3°
+  EXPECT_EQ(AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options).status,
+            IcpStatus::kImplausibleJump);
+}
+
+// A model of random points and normals: nothing passes the gates.
+TEST(AlignToModel, AGarbageModelHasTooFewInliers) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  ModelPyramid model = ModelOf(scene, reference);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> uniform(-3.0f, 3.0f);
+  for (PointMap& map : model.maps) {
+    for (size_t i = 0; i < map.points.size(); ++i) {
+      map.points[i] = {uniform(rng), uniform(rng), uniform(rng)};
+      map.normals[i] = Eigen::Vector3f(uniform(rng), uniform(rng), uniform(rng)).normalized();
+    }
+  }
+  const IcpResult result = AlignToModel(LiveOf(scene, reference), model, reference, IcpOptions());
+  EXPECT_EQ(result.status, IcpStatus::kTooFewInliers) << IcpStatusName(result.status);
+  EXPECT_LT(result.inliers, IcpOptions().min_inliers);
+  EXPECT_GT(result.valid_points, 10000);
+}
+
+// The model's walls roughened by ±1.5 cm along their normals (RMS 8.7 mm; ~80 % within the
+// finest level's 1.25 cm gate): pairs pass the gates but do not fit.
+TEST(AlignToModel, AModelThatDoesNotFitHasALargeResidual) {
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d reference = Reference();
+  ModelPyramid model = ModelOf(scene, reference);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> uniform(-0.015f, 0.015f);
+  for (PointMap& map : model.maps) {
+    for (size_t i = 0; i < map.points.size(); ++i) {
+      if (IsValid(map.points[i])) map.points[i] += map.normals[i] * uniform(rng);
+    }
+  }
+  IcpOptions options;
+  options.max_residual_m = 0.005;
+  const IcpResult result = AlignToModel(LiveOf(scene, reference), model, reference, options);
+  EXPECT_EQ(result.status, IcpStatus::kLargeResidual) << IcpStatusName(result.status);
+  EXPECT_GT(result.residual_rms_m, 0.005);
+}
+
+}  // namespace
+}  // namespace hw::reconstruct
