@@ -2,9 +2,9 @@
 
 #include <cassert>
 #include <cmath>
-#include <unordered_map>
 
 #include "reconstruct/option_check.h"
+#include "reconstruct/tsdf_volume_impl.h"
 
 namespace hw::reconstruct {
 
@@ -25,29 +25,8 @@ std::string TsdfOptions::Check() const {
   return "";
 }
 
-namespace {
-
-struct BlockKeyHash {
-  size_t operator()(const BlockKey& k) const {
-    // The spatial hash of Teschner et al. (2003), as voxel hashing uses.
-    return static_cast<size_t>((static_cast<uint64_t>(k.x()) * 73856093u) ^
-                               (static_cast<uint64_t>(k.y()) * 19349669u) ^
-                               (static_cast<uint64_t>(k.z()) * 83492791u));
-  }
-};
-struct BlockKeyEqual {
-  bool operator()(const BlockKey& a, const BlockKey& b) const { return a == b; }
-};
-
-int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
-
-}  // namespace
-
-struct TsdfVolume::Impl {
-  std::unordered_map<BlockKey, int, BlockKeyHash, BlockKeyEqual> index;
-  // Stable addresses: blocks are never moved once created.
-  std::vector<std::unique_ptr<VoxelBlock>> blocks;
-};
+using internal::KeyInRange;
+using internal::PackKey;
 
 TsdfVolume::TsdfVolume(const TsdfOptions& options) : options_(options), impl_(std::make_unique<Impl>()) {
   assert(options.Check().empty());
@@ -59,91 +38,115 @@ TsdfVolume& TsdfVolume::operator=(TsdfVolume&&) noexcept = default;
 float TsdfVolume::voxel_size_m() const { return static_cast<float>(options_.voxel_size_m); }
 
 const VoxelBlock* TsdfVolume::FindBlock(const BlockKey& key) const {
-  const auto it = impl_->index.find(key);
-  return it == impl_->index.end() ? nullptr : impl_->blocks[it->second].get();
+  if (!KeyInRange(key.x(), key.y(), key.z())) return nullptr;
+  return impl_->Find(PackKey(key.x(), key.y(), key.z()));
 }
 
 VoxelBlock& TsdfVolume::GetOrCreateBlock(const BlockKey& key) {
-  const auto [it, inserted] = impl_->index.try_emplace(key, static_cast<int>(impl_->blocks.size()));
-  if (inserted) {
-    auto block = std::make_unique<VoxelBlock>();
-    block->key = key;
-    impl_->blocks.push_back(std::move(block));
-  }
-  return *impl_->blocks[it->second];
+  assert(KeyInRange(key.x(), key.y(), key.z()));
+  return *impl_->blocks[impl_->GetOrCreate(key)];
 }
 
 const Voxel* TsdfVolume::FindVoxel(const Eigen::Vector3i& voxel) const {
-  const BlockKey key(FloorDiv(voxel.x(), kBlockSide), FloorDiv(voxel.y(), kBlockSide),
-                     FloorDiv(voxel.z(), kBlockSide));
-  const VoxelBlock* block = FindBlock(key);
-  if (block == nullptr) return nullptr;
-  const Eigen::Vector3i local = voxel - key * kBlockSide;
-  return &block->voxels[local.x() + kBlockSide * (local.y() + kBlockSide * local.z())];
+  return TsdfSampler(*this).FindVoxel(voxel);
 }
-
-namespace {
-
-// The 8 voxels around a world point and the trilinear weights; false when one is unobserved.
-bool Corners(const TsdfVolume& volume, const Eigen::Vector3f& point_in_world,
-             std::array<const Voxel*, 8>& voxels, std::array<float, 8>& weights) {
-  const Eigen::Vector3f g = point_in_world / volume.voxel_size_m();
-  const Eigen::Vector3f base = g.array().floor();
-  const Eigen::Vector3f f = g - base;
-  const Eigen::Vector3i b = base.cast<int>();
-  for (int c = 0; c < 8; ++c) {
-    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
-    const Voxel* v = volume.FindVoxel(b + Eigen::Vector3i(dx, dy, dz));
-    if (v == nullptr || v->weight <= 0) return false;
-    voxels[c] = v;
-    weights[c] = (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
-  }
-  return true;
-}
-
-}  // namespace
 
 std::optional<float> TsdfVolume::SdfAt(const Eigen::Vector3f& point_in_world) const {
-  std::array<const Voxel*, 8> voxels;
-  std::array<float, 8> weights;
-  if (!Corners(*this, point_in_world, voxels, weights)) return std::nullopt;
-  float sdf = 0;
-  for (int c = 0; c < 8; ++c) sdf += weights[c] * voxels[c]->sdf;
+  float sdf;
+  if (!TsdfSampler(*this).Sdf(point_in_world, sdf)) return std::nullopt;
   return sdf;
 }
 
 std::optional<Eigen::Vector3f> TsdfVolume::NormalAt(const Eigen::Vector3f& point_in_world) const {
-  const float h = voxel_size_m();
-  Eigen::Vector3f gradient;
-  for (int axis = 0; axis < 3; ++axis) {
-    Eigen::Vector3f step = Eigen::Vector3f::Zero();
-    step[axis] = h;
-    const auto plus = SdfAt(point_in_world + step);
-    const auto minus = SdfAt(point_in_world - step);
-    if (!plus || !minus) return std::nullopt;
-    gradient[axis] = *plus - *minus;
-  }
-  const float norm = gradient.norm();
-  if (!(norm > 1e-12f)) return std::nullopt;
-  return gradient / norm;
+  Eigen::Vector3f normal;
+  if (!TsdfSampler(*this).Normal(point_in_world, normal)) return std::nullopt;
+  return normal;
 }
 
 std::optional<Rgb8> TsdfVolume::ColourAt(const Eigen::Vector3f& point_in_world) const {
-  std::array<const Voxel*, 8> voxels;
-  std::array<float, 8> weights;
-  if (!Corners(*this, point_in_world, voxels, weights)) return std::nullopt;
+  Rgb8 colour;
+  if (!TsdfSampler(*this).Colour(point_in_world, colour)) return std::nullopt;
+  return colour;
+}
+
+bool TsdfSampler::Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f& normal) {
+  const Eigen::Vector3f g = point_in_world * inv_voxel_m_;
+  const Eigen::Vector3f base = g.array().floor();
+  const Eigen::Vector3f f = g - base;
+  // The 4×4×4 voxels from base − 1 to base + 2 hold every corner of the six samples
+  // p ± one voxel along each axis; only the 32 of the three axis-aligned 4×2×2 bars are used.
+  const Eigen::Vector3i lo = base.cast<int>().array() - 1;
+  const int m = kBlockSide - 1;
+  const Eigen::Vector3i k0(lo.x() >> kBlockShift, lo.y() >> kBlockShift, lo.z() >> kBlockShift);
+  const Eigen::Vector3i l0(lo.x() & m, lo.y() & m, lo.z() & m);
+  const int sx = l0.x() + 3 > m, sy = l0.y() + 3 > m, sz = l0.z() + 3 > m;
+  const VoxelBlock* near[2][2][2] = {};
+  for (int dz = 0; dz <= sz; ++dz) {
+    for (int dy = 0; dy <= sy; ++dy) {
+      for (int dx = 0; dx <= sx; ++dx) near[dz][dy][dx] = volume_->FindBlock(k0 + Eigen::Vector3i(dx, dy, dz));
+    }
+  }
+  float s[4][4][4];  // [z][y][x], offsets −1 … 2 from base
+  auto fetch = [&](int x, int y, int z) {
+    const int ax = l0.x() + x, ay = l0.y() + y, az = l0.z() + z;
+    const VoxelBlock* b = near[az >> kBlockShift][ay >> kBlockShift][ax >> kBlockShift];
+    if (b == nullptr) return false;
+    const Voxel& v = b->voxels[(ax & m) + kBlockSide * ((ay & m) + kBlockSide * (az & m))];
+    s[z][y][x] = v.sdf;
+    return v.weight > 0;
+  };
+  for (int a = 0; a < 4; ++a) {
+    for (int b = 1; b <= 2; ++b) {
+      for (int c = 1; c <= 2; ++c) {
+        if (!fetch(a, b, c) || !fetch(b, a, c) || !fetch(b, c, a)) return false;
+      }
+    }
+  }
+  // Trilinear value at base + (ox, oy, oz) + f from the cell whose lowest corner is there.
+  auto trilinear = [&](int ox, int oy, int oz) {
+    const int x = ox + 1, y = oy + 1, z = oz + 1;
+    const float x00 = s[z][y][x] + f.x() * (s[z][y][x + 1] - s[z][y][x]);
+    const float x10 = s[z][y + 1][x] + f.x() * (s[z][y + 1][x + 1] - s[z][y + 1][x]);
+    const float x01 = s[z + 1][y][x] + f.x() * (s[z + 1][y][x + 1] - s[z + 1][y][x]);
+    const float x11 = s[z + 1][y + 1][x] + f.x() * (s[z + 1][y + 1][x + 1] - s[z + 1][y + 1][x]);
+    const float y0 = x00 + f.y() * (x10 - x00);
+    const float y1 = x01 + f.y() * (x11 - x01);
+    return y0 + f.z() * (y1 - y0);
+  };
+  const Eigen::Vector3f gradient(trilinear(1, 0, 0) - trilinear(-1, 0, 0),
+                                 trilinear(0, 1, 0) - trilinear(0, -1, 0),
+                                 trilinear(0, 0, 1) - trilinear(0, 0, -1));
+  const float norm = gradient.norm();
+  if (!(norm > 1e-12f)) return false;
+  normal = gradient / norm;
+  return true;
+}
+
+bool TsdfSampler::Colour(const Eigen::Vector3f& point_in_world, Rgb8& colour) {
+  std::array<const Voxel*, 8> c;
+  Eigen::Vector3f f;
+  if (Corners(point_in_world, c, f) != Status::kOk) return false;
   Eigen::Vector3f rgb = Eigen::Vector3f::Zero();
-  for (int c = 0; c < 8; ++c) rgb += weights[c] * voxels[c]->colour.cast<float>();
-  return (rgb.array() + 0.5f).min(255.0f).max(0.0f).matrix().cast<std::uint8_t>();
+  float total = 0;
+  for (int i = 0; i < 8; ++i) {
+    if (c[i]->colour_weight == 0) continue;
+    const float w = ((i & 1) ? f.x() : 1 - f.x()) * ((i & 2) ? f.y() : 1 - f.y()) * ((i & 4) ? f.z() : 1 - f.z());
+    rgb += w * c[i]->colour.cast<float>();
+    total += w;
+  }
+  if (total > 1e-6f) rgb /= total;
+  else rgb.setZero();
+  colour = (rgb.array() + 0.5f).min(255.0f).max(0.0f).matrix().cast<std::uint8_t>();
+  return true;
 }
 
 size_t TsdfVolume::NumBlocks() const { return impl_->blocks.size(); }
 
 size_t TsdfVolume::MemoryBytes() const {
-  // Blocks, the block pointer array and the hash map's nodes and buckets (libstdc++: a node
-  // holds the pair and a next pointer; the cached hash is stored too).
-  const size_t node = sizeof(std::pair<const BlockKey, int>) + 2 * sizeof(void*);
-  return impl_->blocks.size() * (sizeof(VoxelBlock) + sizeof(void*)) +
+  // Blocks, the block pointer and stamp arrays and the hash map's nodes and buckets
+  // (libstdc++: a node holds the pair and a next pointer).
+  const size_t node = sizeof(std::pair<const uint64_t, int32_t>) + sizeof(void*);
+  return impl_->blocks.size() * (sizeof(VoxelBlock) + sizeof(void*) + sizeof(uint32_t)) +
          impl_->index.size() * node + impl_->index.bucket_count() * sizeof(void*);
 }
 

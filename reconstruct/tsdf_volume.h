@@ -6,6 +6,7 @@
 // so memory grows with the observed surface, never with the bounding box of the scene.
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -40,18 +41,26 @@ struct TsdfOptions {
   std::string Check() const;  // "" when valid, else names the field, value and constraint
 };
 
-// Blocks are kBlockSide voxels along each axis.
+// Blocks are kBlockSide voxels along each axis (8: the samplers divide by shifting).
 inline constexpr int kBlockSide = 8;
+inline constexpr int kBlockShift = 3;
+static_assert(kBlockSide == 1 << kBlockShift);
 inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 
 // One voxel. sdf is the truncated signed distance divided by truncation_m, in [−1, 1]
 // (positive in front of the surface, towards the cameras that saw it); weight 0 means never
 // observed (sdf and colour then meaningless).
+// colour_weight counts the observations that painted the voxel (capped at min(max_weight,
+// 255)): a voxel first seen far in front of the surface (weight > 0, no colour yet) must not
+// average its unset black into the first real colour. It fills the padding byte: a voxel
+// stays 12 bytes.
 struct Voxel {
   float sdf = 1.0f;
   float weight = 0.0f;
   Rgb8 colour = Rgb8::Zero();
+  std::uint8_t colour_weight = 0;
 };
+static_assert(sizeof(Voxel) == 12);
 
 // Integer coordinates of a block: the block holding voxel (i, j, k) is
 // (floor(i / kBlockSide), ...). Voxel (i, j, k) has its centre at (i, j, k) · voxel_size_m
@@ -108,12 +117,14 @@ class TsdfVolume {
   const Voxel* FindVoxel(const Eigen::Vector3i& voxel) const;
 
   // Trilinear interpolation of sdf (in units of truncation_m) at a world point (metres);
-  // nullopt unless all 8 surrounding voxels are observed.
+  // nullopt unless all 8 surrounding voxels are observed. One call costs a hash lookup or
+  // more: for many nearby queries use TsdfSampler, which gives the same values.
   std::optional<float> SdfAt(const Eigen::Vector3f& point_in_world) const;
   // Unit surface normal at a world point: the normalised central-difference gradient of the
   // interpolated sdf; nullopt where a needed voxel is unobserved or the gradient vanishes.
   std::optional<Eigen::Vector3f> NormalAt(const Eigen::Vector3f& point_in_world) const;
-  // Trilinear interpolation of colour at a world point; nullopt as SdfAt.
+  // Trilinear interpolation of colour at a world point over the corners that were painted
+  // (weights renormalised; black when none was); nullopt as SdfAt.
   std::optional<Rgb8> ColourAt(const Eigen::Vector3f& point_in_world) const;
 
   size_t NumBlocks() const;
@@ -129,5 +140,123 @@ class TsdfVolume {
   TsdfOptions options_;
   std::unique_ptr<Impl> impl_;
 };
+
+// Fast sampling of a volume for many nearby queries (a ray, a mesh, a thermal image): it
+// keeps the last block it looked up, so that a trilinear sample whose 8 voxels lie in one
+// block — 7 of 8 cells for 8³ blocks — costs no hash lookup when the previous query was in
+// the same block. Results equal TsdfVolume::SdfAt / NormalAt / ColourAt. Cheap to make
+// (one per thread and task); not thread-safe; invalid once the volume gains blocks.
+class TsdfSampler {
+ public:
+  explicit TsdfSampler(const TsdfVolume& volume)
+      : volume_(&volume), inv_voxel_m_(1.0f / volume.voxel_size_m()) {}
+
+  // What Sample() found at a point.
+  enum class Status {
+    kOk,          // sdf holds the trilinear value
+    kUnobserved,  // the cell's blocks exist but one of its 8 voxels has weight 0 (or a
+                  // block other than the lowest corner's is missing)
+    kNoBlock,     // the block holding the cell's lowest corner voxel does not exist:
+                  // nothing to find before leaving that block (raycasting skips it whole)
+  };
+  // Trilinear sdf (units of truncation_m) at a world point (metres).
+  Status Sample(const Eigen::Vector3f& point_in_world, float& sdf);
+  bool Sdf(const Eigen::Vector3f& point_in_world, float& sdf) {
+    return Sample(point_in_world, sdf) == Status::kOk;
+  }
+  // TsdfVolume::NormalAt: the normalised central difference (step one voxel) of the
+  // trilinear sdf, from the 32 voxels those six samples need. False where one is unobserved
+  // or the gradient vanishes.
+  bool Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f& normal);
+  // TsdfVolume::ColourAt.
+  bool Colour(const Eigen::Vector3f& point_in_world, Rgb8& colour);
+  // FindBlock through the one-block cache.
+  const VoxelBlock* Block(const BlockKey& key) {
+    if (key != cached_key_ || !cache_valid_) {
+      cached_key_ = key;
+      cached_block_ = volume_->FindBlock(key);
+      cache_valid_ = true;
+    }
+    return cached_block_;
+  }
+  // The voxel with integer coordinates, or nullptr when its block is absent.
+  const Voxel* FindVoxel(const Eigen::Vector3i& voxel) {
+    const VoxelBlock* block = Block(BlockKey(voxel.x() >> kBlockShift, voxel.y() >> kBlockShift,
+                                             voxel.z() >> kBlockShift));
+    if (block == nullptr) return nullptr;
+    const int m = kBlockSide - 1;
+    return &block->voxels[(voxel.x() & m) + kBlockSide * ((voxel.y() & m) + kBlockSide * (voxel.z() & m))];
+  }
+
+ private:
+  // The 8 voxels around a point (x fastest) and the fractional position; false as Sample.
+  Status Corners(const Eigen::Vector3f& point_in_world, std::array<const Voxel*, 8>& corners,
+                 Eigen::Vector3f& fraction);
+
+  const TsdfVolume* volume_;
+  float inv_voxel_m_;
+  BlockKey cached_key_ = BlockKey::Zero();
+  const VoxelBlock* cached_block_ = nullptr;
+  bool cache_valid_ = false;
+};
+
+inline TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
+                                                std::array<const Voxel*, 8>& corners,
+                                                Eigen::Vector3f& fraction) {
+  const float gx = point_in_world.x() * inv_voxel_m_, gy = point_in_world.y() * inv_voxel_m_,
+              gz = point_in_world.z() * inv_voxel_m_;
+  const float fx = std::floor(gx), fy = std::floor(gy), fz = std::floor(gz);
+  fraction = {gx - fx, gy - fy, gz - fz};
+  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy), iz = static_cast<int>(fz);
+  const int m = kBlockSide - 1;
+  const int lx = ix & m, ly = iy & m, lz = iz & m;
+  const VoxelBlock* block = Block(BlockKey(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift));
+  if (block == nullptr) return Status::kNoBlock;
+  if (lx < m && ly < m && lz < m) {  // all 8 in this block: no further lookup
+    const Voxel* v = &block->voxels[lx + kBlockSide * (ly + kBlockSide * lz)];
+    constexpr int kY = kBlockSide, kZ = kBlockSide * kBlockSide;
+    corners = {v, v + 1, v + kY, v + kY + 1, v + kZ, v + kZ + 1, v + kZ + kY, v + kZ + kY + 1};
+  } else {
+    // Across a block face: the other blocks of the 2×2×2 around, looked up directly so
+    // that the cache keeps following the ray.
+    const int kx = ix >> kBlockShift, ky = iy >> kBlockShift, kz = iz >> kBlockShift;
+    const int sx = lx == m, sy = ly == m, sz = lz == m;
+    const VoxelBlock* near[2][2][2] = {};
+    for (int dz = 0; dz <= sz; ++dz) {
+      for (int dy = 0; dy <= sy; ++dy) {
+        for (int dx = 0; dx <= sx; ++dx) {
+          near[dz][dy][dx] = (dx | dy | dz) == 0
+                                 ? block
+                                 : volume_->FindBlock(BlockKey(kx + dx, ky + dy, kz + dz));
+        }
+      }
+    }
+    for (int c = 0; c < 8; ++c) {
+      const int x = lx + (c & 1), y = ly + ((c >> 1) & 1), z = lz + (c >> 2);
+      const VoxelBlock* b = near[z >> kBlockShift][y >> kBlockShift][x >> kBlockShift];
+      if (b == nullptr) return Status::kUnobserved;
+      corners[c] = &b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
+    }
+  }
+  for (int c = 0; c < 8; ++c) {
+    if (!(corners[c]->weight > 0)) return Status::kUnobserved;
+  }
+  return Status::kOk;
+}
+
+inline TsdfSampler::Status TsdfSampler::Sample(const Eigen::Vector3f& point_in_world, float& sdf) {
+  std::array<const Voxel*, 8> c;
+  Eigen::Vector3f f;
+  const Status status = Corners(point_in_world, c, f);
+  if (status != Status::kOk) return status;
+  const float x00 = c[0]->sdf + f.x() * (c[1]->sdf - c[0]->sdf);
+  const float x10 = c[2]->sdf + f.x() * (c[3]->sdf - c[2]->sdf);
+  const float x01 = c[4]->sdf + f.x() * (c[5]->sdf - c[4]->sdf);
+  const float x11 = c[6]->sdf + f.x() * (c[7]->sdf - c[6]->sdf);
+  const float y0 = x00 + f.y() * (x10 - x00);
+  const float y1 = x01 + f.y() * (x11 - x01);
+  sdf = y0 + f.z() * (y1 - y0);
+  return Status::kOk;
+}
 
 }  // namespace hw::reconstruct

@@ -1,0 +1,204 @@
+#include "reconstruct/raycast.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "reconstruct/option_check.h"
+#include "reconstruct/tsdf_volume_impl.h"
+
+namespace hw::reconstruct {
+
+using internal::Fail;
+using internal::InRange;
+
+std::string RaycastOptions::Check() const {
+  if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) return Fail("min_depth_m", min_depth_m, ">= 0 m");
+  if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
+    return Fail("max_depth_m", max_depth_m, "finite and > min_depth_m");
+  }
+  if (!(step_fraction > 0 && step_fraction <= 1)) return Fail("step_fraction", step_fraction, "in (0, 1]");
+  if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
+  return "";
+}
+
+namespace {
+
+// Rays are only marched over the depth range where allocated blocks project: every block in
+// view is projected into a grid of kTile × kTile pixel tiles, each keeping the nearest and
+// farthest depth of the blocks over it (InfiniTAM's "expected depth" ranges). Rays then start
+// at the front of the nearest block instead of crossing empty space block by block.
+constexpr int kTile = 8;
+
+struct DepthRanges {
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<float> near_m, far_m;  // per tile; near > far when no block projects there
+};
+
+DepthRanges ProjectBlocks(const TsdfVolume& volume, const PinholeCamera& camera,
+                          const core::Rigid3d& world_from_camera, float min_depth_m, float max_depth_m) {
+  DepthRanges r;
+  r.tiles_x = (camera.width + kTile - 1) / kTile;
+  r.tiles_y = (camera.height + kTile - 1) / kTile;
+  r.near_m.assign(size_t(r.tiles_x) * r.tiles_y, std::numeric_limits<float>::infinity());
+  r.far_m.assign(r.near_m.size(), -std::numeric_limits<float>::infinity());
+  const core::Rigid3d camera_from_world = world_from_camera.Inverse();
+  const Eigen::Matrix3f rotation = camera_from_world.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f translation = camera_from_world.translation.cast<float>();
+  const float voxel_m = volume.voxel_size_m();
+  const float block_m = voxel_m * kBlockSide;
+  // A sample point reads voxels of its cell's lowest corner's block and the next ones: a
+  // block matters for points from its first voxel's centre to one voxel past its last.
+  const Eigen::Vector3f ex = rotation.col(0) * block_m, ey = rotation.col(1) * block_m,
+                        ez = rotation.col(2) * block_m;
+  volume.ForEachBlock([&](const VoxelBlock& block) {
+    const Eigen::Vector3f c0 = rotation * (block.key.cast<float>() * block_m) + translation;
+    float z_lo = std::numeric_limits<float>::infinity(), z_hi = -z_lo;
+    float u_lo = z_lo, u_hi = z_hi, v_lo = z_lo, v_hi = z_hi;
+    bool straddles = false;
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3f p = c0 + ((c & 1) ? ex : Eigen::Vector3f::Zero()) +
+                                ((c & 2) ? ey : Eigen::Vector3f::Zero()) + ((c & 4) ? ez : Eigen::Vector3f::Zero());
+      z_lo = std::min(z_lo, p.z());
+      z_hi = std::max(z_hi, p.z());
+      if (p.z() < 1e-3f) {
+        straddles = true;
+        continue;
+      }
+      const Eigen::Vector2f uv = camera.Project(p);
+      u_lo = std::min(u_lo, uv.x());
+      u_hi = std::max(u_hi, uv.x());
+      v_lo = std::min(v_lo, uv.y());
+      v_hi = std::max(v_hi, uv.y());
+    }
+    if (z_hi < min_depth_m || z_lo > max_depth_m) return;
+    int tx0 = 0, tx1 = r.tiles_x - 1, ty0 = 0, ty1 = r.tiles_y - 1;
+    if (!straddles) {  // else (at or behind the camera plane) it may cover any pixel
+      if (u_hi < -0.5f || v_hi < -0.5f || u_lo > camera.width - 0.5f || v_lo > camera.height - 0.5f) return;
+      tx0 = std::max(0, static_cast<int>(std::floor(u_lo + 0.5f)) / kTile);
+      ty0 = std::max(0, static_cast<int>(std::floor(v_lo + 0.5f)) / kTile);
+      tx1 = std::min(r.tiles_x - 1, static_cast<int>(std::floor(u_hi + 0.5f)) / kTile);
+      ty1 = std::min(r.tiles_y - 1, static_cast<int>(std::floor(v_hi + 0.5f)) / kTile);
+    }
+    z_lo = std::max(z_lo, min_depth_m);
+    z_hi = std::min(z_hi, max_depth_m);
+    for (int ty = ty0; ty <= ty1; ++ty) {
+      for (int tx = tx0; tx <= tx1; ++tx) {
+        const size_t i = size_t(ty) * r.tiles_x + tx;
+        r.near_m[i] = std::min(r.near_m[i], z_lo);
+        r.far_m[i] = std::max(r.far_m[i], z_hi);
+      }
+    }
+  });
+  return r;
+}
+
+}  // namespace
+
+PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
+                 const core::Rigid3d& world_from_camera, const RaycastOptions& options) {
+  assert(options.Check().empty());
+  PointMap map(camera.width, camera.height);
+  if (options.with_colour) map.colours.assign(map.points.size(), Rgb8::Zero());
+  if (camera.width <= 0 || camera.height <= 0 || volume.NumBlocks() == 0) return map;
+
+  const float min_depth_m = static_cast<float>(options.min_depth_m);
+  const float max_depth_m = static_cast<float>(options.max_depth_m);
+  const DepthRanges ranges = ProjectBlocks(volume, camera, world_from_camera, min_depth_m, max_depth_m);
+
+  const Eigen::Matrix3f rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f origin = world_from_camera.translation.cast<float>();
+  const float truncation_m = static_cast<float>(volume.options().truncation_m);
+  const float min_step = static_cast<float>(options.step_fraction);
+  const float block_m = volume.voxel_size_m() * kBlockSide;
+  const int num_threads = std::min(internal::ResolveThreads(options.num_threads), camera.height);
+
+  internal::RunChunks(num_threads, [&](int chunk) {
+    TsdfSampler sampler(volume);
+    const int y_begin = camera.height * chunk / num_threads;
+    const int y_end = camera.height * (chunk + 1) / num_threads;
+    for (int y = y_begin; y < y_end; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const size_t tile = size_t(y / kTile) * ranges.tiles_x + x / kTile;
+        const float t_begin = ranges.near_m[tile], t_end = ranges.far_m[tile];
+        if (!(t_begin <= t_end)) continue;
+        // t is the depth along the optical axis; the world point is origin + t · direction.
+        const Eigen::Vector3f ray_in_camera((static_cast<float>(x) - camera.cx) / camera.fx,
+                                            (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
+        const Eigen::Vector3f direction = rotation * ray_in_camera;
+        const float metres_per_t = ray_in_camera.norm();
+        const float t_per_truncation = truncation_m / metres_per_t;
+        const float t_nudge = 1e-3f * block_m / metres_per_t;
+        float t = t_begin, t_previous = 0, sdf_previous = 0;
+        bool have_previous = false;
+        while (t <= t_end) {
+          const Eigen::Vector3f p = origin + t * direction;
+          float sdf = 0;
+          const TsdfSampler::Status status = sampler.Sample(p, sdf);
+          if (status == TsdfSampler::Status::kNoBlock) {
+            // Nothing until the ray leaves the block of the cell's lowest corner (points
+            // from its first voxel centre to one voxel past its last): jump to that exit.
+            const float voxel_m = volume.voxel_size_m();
+            float t_exit = std::numeric_limits<float>::infinity();
+            for (int a = 0; a < 3; ++a) {
+              if (direction[a] == 0) continue;
+              const float k = std::floor((p[a] / voxel_m) / kBlockSide);
+              const float face_m = (direction[a] > 0 ? k + 1 : k) * block_m;
+              t_exit = std::min(t_exit, (face_m - origin[a]) / direction[a]);
+            }
+            t = std::max(t_exit, t) + t_nudge;
+            have_previous = false;
+            continue;
+          }
+          if (status == TsdfSampler::Status::kUnobserved) {
+            t += min_step * t_per_truncation;
+            have_previous = false;
+            continue;
+          }
+          if (have_previous && sdf_previous > 0 && sdf <= 0) {
+            // + to −: the surface lies between the two samples. Regula falsi on the
+            // trilinear field: the two samples may be a truncation apart, where the field
+            // is not linear (truncated at +1, or across several voxels of a curved surface).
+            float ta = t_previous, sa = sdf_previous, tb = t, sb = sdf;
+            float t_hit = ta + (tb - ta) * sa / (sa - sb);
+            for (int i = 0; i < 3 && sa - sb > 0; ++i) {
+              float s;
+              if (!sampler.Sdf(origin + t_hit * direction, s)) break;
+              if (s > 0) {
+                ta = t_hit;
+                sa = s;
+              } else {
+                tb = t_hit;
+                sb = s;
+              }
+              if (sa - sb <= 0) break;
+              t_hit = ta + (tb - ta) * sa / (sa - sb);
+            }
+            const Eigen::Vector3f point = origin + t_hit * direction;
+            const size_t i = map.Index(x, y);
+            map.points[i] = point;
+            Eigen::Vector3f normal;
+            if (sampler.Normal(point, normal)) map.normals[i] = normal;
+            if (options.with_colour) {
+              Rgb8 rgb;
+              if (sampler.Colour(point, rgb)) map.colours[i] = rgb;
+            }
+            break;
+          }
+          if (have_previous && sdf_previous < 0 && sdf > 0) break;  // a surface from behind
+          t_previous = t;
+          sdf_previous = sdf;
+          have_previous = true;
+          t += std::max(sdf, min_step) * t_per_truncation;
+        }
+      }
+    }
+  });
+  return map;
+}
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,86 @@
+#pragma once
+
+// Internal to the TSDF sources (tsdf_volume.cc, tsdf_integrate.cc): the block storage and
+// the coarse thread split they share.
+
+#include <cstdint>
+#include <memory>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "reconstruct/tsdf_volume.h"
+
+namespace hw::reconstruct {
+
+namespace internal {
+
+// A block key packed into 64 bits, 21 bits per axis (±2^20 blocks: ±5 km at 5 mm voxels).
+inline uint64_t PackKey(int x, int y, int z) {
+  constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
+  return ((static_cast<uint64_t>(x) & kMask) << 42) | ((static_cast<uint64_t>(y) & kMask) << 21) |
+         (static_cast<uint64_t>(z) & kMask);
+}
+inline bool KeyInRange(int x, int y, int z) {
+  constexpr int kLimit = 1 << 20;
+  return x >= -kLimit && x < kLimit && y >= -kLimit && y < kLimit && z >= -kLimit && z < kLimit;
+}
+
+struct PackedKeyHash {
+  size_t operator()(uint64_t key) const {
+    // Fibonacci hashing mixes the three packed fields into every bit.
+    const uint64_t h = key * 0x9E3779B97F4A7C15ull;
+    return static_cast<size_t>(h ^ (h >> 29));
+  }
+};
+
+// Threads to use for a num_threads option (0: hardware concurrency).
+inline int ResolveThreads(int num_threads) {
+  if (num_threads > 0) return num_threads;
+  const unsigned n = std::thread::hardware_concurrency();
+  return n == 0 ? 1 : static_cast<int>(n);
+}
+
+// Runs f(0) … f(n − 1) on n threads (f(0) on the caller's), one coarse chunk each.
+template <class F>
+void RunChunks(int n, const F& f) {
+  if (n <= 1) {
+    f(0);
+    return;
+  }
+  std::vector<std::thread> threads;
+  threads.reserve(n - 1);
+  for (int i = 1; i < n; ++i) threads.emplace_back([&f, i] { f(i); });
+  f(0);
+  for (auto& t : threads) t.join();
+}
+
+}  // namespace internal
+
+struct TsdfVolume::Impl {
+  std::unordered_map<uint64_t, int32_t, internal::PackedKeyHash> index;
+  // Stable addresses: blocks are never moved once created.
+  std::vector<std::unique_ptr<VoxelBlock>> blocks;
+  // Per block, the last Integrate() call that listed it as visible (dedup of the list).
+  std::vector<uint32_t> visit_stamp;
+  uint32_t integrate_count = 0;
+
+  VoxelBlock* Find(uint64_t packed) const {
+    const auto it = index.find(packed);
+    return it == index.end() ? nullptr : blocks[it->second].get();
+  }
+  // Index of the block, created if missing.
+  int32_t GetOrCreate(const BlockKey& key) {
+    const auto [it, inserted] =
+        index.try_emplace(internal::PackKey(key.x(), key.y(), key.z()), static_cast<int32_t>(blocks.size()));
+    if (inserted) {
+      auto block = std::make_unique<VoxelBlock>();
+      block->key = key;
+      blocks.push_back(std::move(block));
+      visit_stamp.push_back(0);
+    }
+    return it->second;
+  }
+};
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,347 @@
+#include "reconstruct/tsdf_volume.h"
+
+#include <cmath>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include <gtest/gtest.h>
+
+#include "reconstruct/tsdf_test_support.h"
+
+namespace hw::reconstruct {
+namespace {
+
+using test::SmallCamera;
+using test::SmallOptions;
+
+// ---------------------------------------------------------------- storage
+
+TEST(TsdfStorage, FindVoxelAcrossNegativeCoordinates) {
+  TsdfVolume volume(SmallOptions());
+  VoxelBlock& minus = volume.GetOrCreateBlock(BlockKey(-1, -1, -1));
+  VoxelBlock& plus = volume.GetOrCreateBlock(BlockKey(0, 0, 0));
+  EXPECT_EQ(volume.NumBlocks(), 2u);
+  // Voxel −1 is the last of block −1; voxel 0 the first of block 0; −8 the first of −1.
+  EXPECT_EQ(volume.FindVoxel({-1, -1, -1}), &minus.voxels[7 + 8 * (7 + 8 * 7)]);
+  EXPECT_EQ(volume.FindVoxel({-8, -8, -8}), &minus.voxels[0]);
+  EXPECT_EQ(volume.FindVoxel({-8, -7, -6}), &minus.voxels[0 + 8 * (1 + 8 * 2)]);
+  EXPECT_EQ(volume.FindVoxel({0, 0, 0}), &plus.voxels[0]);
+  EXPECT_EQ(volume.FindVoxel({7, 6, 5}), &plus.voxels[7 + 8 * (6 + 8 * 5)]);
+  EXPECT_EQ(volume.FindVoxel({-9, -1, -1}), nullptr);  // block (−2, −1, −1)
+  EXPECT_EQ(volume.FindVoxel({8, 0, 0}), nullptr);     // block (1, 0, 0)
+  EXPECT_EQ(volume.FindVoxel({-1, 0, 0}), nullptr);    // block (−1, 0, 0)
+  EXPECT_EQ(volume.FindBlock(BlockKey(-1, -1, -1)), &minus);
+  EXPECT_EQ(minus.key, BlockKey(-1, -1, -1));
+  // Creating again returns the same block.
+  EXPECT_EQ(&volume.GetOrCreateBlock(BlockKey(-1, -1, -1)), &minus);
+  EXPECT_EQ(volume.NumBlocks(), 2u);
+  // Far keys: distinct blocks (no aliasing of the packed key).
+  volume.GetOrCreateBlock(BlockKey(100000, -100000, 7));
+  volume.GetOrCreateBlock(BlockKey(-100000, 100000, 7));
+  EXPECT_EQ(volume.NumBlocks(), 4u);
+  EXPECT_EQ(volume.FindBlock(BlockKey(100000, -100000, 7))->key, BlockKey(100000, -100000, 7));
+  EXPECT_EQ(volume.FindBlock(BlockKey(100000, 100000, 7)), nullptr);
+}
+
+// Fills blocks [lo, hi]³ (block keys) with sdf = a·x + b·y + c·z + d at voxel centres (metres).
+void FillLinear(TsdfVolume& volume, int lo, int hi, const Eigen::Vector4f& field) {
+  const float h = volume.voxel_size_m();
+  for (int bz = lo; bz <= hi; ++bz) {
+    for (int by = lo; by <= hi; ++by) {
+      for (int bx = lo; bx <= hi; ++bx) {
+        VoxelBlock& block = volume.GetOrCreateBlock(BlockKey(bx, by, bz));
+        for (int i = 0; i < kBlockVoxels; ++i) {
+          const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
+          const Eigen::Vector3f p = v.cast<float>() * h;
+          block.voxels[i].sdf = field.head<3>().dot(p) + field.w();
+          block.voxels[i].weight = 1;
+          block.voxels[i].colour = Rgb8(10, 20, 30);
+          block.voxels[i].colour_weight = 1;
+        }
+      }
+    }
+  }
+}
+
+TEST(TsdfStorage, SdfAndNormalExactOnALinearField) {
+  TsdfVolume volume(SmallOptions());
+  const Eigen::Vector4f field(0.3f, -0.5f, 0.8f, 0.1f);
+  FillLinear(volume, -2, 1, field);  // voxels −16 … 15 along each axis
+  const float h = volume.voxel_size_m();
+  std::mt19937 rng(5);
+  // Points whose 4×4×4 neighbourhood stays inside: voxel coordinates in [−15, 13].
+  std::uniform_real_distribution<float> coord(-15 * h, 13 * h);
+  TsdfSampler sampler(volume);
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3f p(coord(rng), coord(rng), coord(rng));
+    const float expected = field.head<3>().dot(p) + field.w();
+    const auto sdf = volume.SdfAt(p);
+    ASSERT_TRUE(sdf.has_value());
+    // Float rounding of values of order 0.1: 1e-5.
+    EXPECT_NEAR(*sdf, expected, 1e-5f) << p.transpose();
+    float fast;
+    ASSERT_TRUE(sampler.Sdf(p, fast));
+    EXPECT_NEAR(fast, *sdf, 1e-6f);
+    const auto normal = volume.NormalAt(p);
+    ASSERT_TRUE(normal.has_value());
+    EXPECT_LT((*normal - field.head<3>().normalized()).norm(), 1e-4f) << p.transpose();
+    const auto colour = volume.ColourAt(p);
+    ASSERT_TRUE(colour.has_value());
+    EXPECT_EQ(*colour, Rgb8(10, 20, 30));
+  }
+  // At voxel centres: the stored value itself (the cell's first corner).
+  const Voxel* v = volume.FindVoxel({-3, 4, -9});
+  ASSERT_NE(v, nullptr);
+  EXPECT_FLOAT_EQ(*volume.SdfAt(Eigen::Vector3f(-3, 4, -9) * h), v->sdf);
+  // Outside the filled blocks: nothing.
+  EXPECT_FALSE(volume.SdfAt(Eigen::Vector3f(20, 0, 0) * h).has_value());
+  EXPECT_FALSE(volume.SdfAt(Eigen::Vector3f(15.5f, 0, 0) * h).has_value());  // corner at voxel 16
+  EXPECT_FALSE(volume.NormalAt(Eigen::Vector3f(14.5f, 0, 0) * h).has_value());  // needs voxel 16
+  EXPECT_TRUE(volume.NormalAt(Eigen::Vector3f(13.5f, 0, 0) * h).has_value());
+  float unused;
+  EXPECT_EQ(sampler.Sample(Eigen::Vector3f(16.5f, 0, 0) * h, unused), TsdfSampler::Status::kNoBlock);
+}
+
+TEST(TsdfStorage, UnobservedVoxelsAreNotInterpolated) {
+  TsdfVolume volume(SmallOptions());
+  FillLinear(volume, 0, 0, Eigen::Vector4f(1, 0, 0, 0));
+  const float h = volume.voxel_size_m();
+  const Eigen::Vector3f p(3.5f * h, 3.5f * h, 3.5f * h);
+  EXPECT_TRUE(volume.SdfAt(p).has_value());
+  VoxelBlock& block = volume.GetOrCreateBlock(BlockKey(0, 0, 0));
+  block.voxels[4 + 8 * (4 + 8 * 4)].weight = 0;  // corner (4, 4, 4) of the cell at 3.5
+  EXPECT_FALSE(volume.SdfAt(p).has_value());
+  EXPECT_FALSE(volume.ColourAt(p).has_value());
+  EXPECT_FALSE(volume.NormalAt(Eigen::Vector3f(2.5f, 3.5f, 3.5f) * h).has_value());
+  TsdfSampler sampler(volume);
+  float sdf;
+  EXPECT_EQ(sampler.Sample(p, sdf), TsdfSampler::Status::kUnobserved);
+  // A cell reaching into a missing block is unobserved, not "no block".
+  EXPECT_EQ(sampler.Sample(Eigen::Vector3f(7.5f, 1, 1) * h, sdf), TsdfSampler::Status::kUnobserved);
+}
+
+TEST(TsdfStorage, BoundsAndMemory) {
+  TsdfVolume volume(SmallOptions());
+  Eigen::Vector3f lo, hi;
+  volume.Bounds(lo, hi);
+  EXPECT_EQ(lo, Eigen::Vector3f::Zero());
+  EXPECT_EQ(hi, Eigen::Vector3f::Zero());
+  const size_t empty = volume.MemoryBytes();
+  volume.GetOrCreateBlock(BlockKey(-2, 0, 3));
+  const size_t one = volume.MemoryBytes();
+  EXPECT_GE(one, empty + sizeof(VoxelBlock));
+  volume.GetOrCreateBlock(BlockKey(1, -1, 3));
+  EXPECT_GE(volume.MemoryBytes(), one + sizeof(VoxelBlock));
+  volume.Bounds(lo, hi);
+  const float b = 0.08f, h = 0.01f;
+  EXPECT_NEAR(lo.x(), -2 * b, 1e-6);
+  EXPECT_NEAR(lo.y(), -1 * b, 1e-6);
+  EXPECT_NEAR(lo.z(), 3 * b, 1e-6);
+  EXPECT_NEAR(hi.x(), 1 * b + 7 * h, 1e-6);
+  EXPECT_NEAR(hi.y(), 0 * b + 7 * h, 1e-6);
+  EXPECT_NEAR(hi.z(), 3 * b + 7 * h, 1e-6);
+  int n = 0;
+  volume.ForEachBlock([&](const VoxelBlock&) { ++n; });
+  EXPECT_EQ(n, 2);
+}
+
+TEST(TsdfOptions, CheckNamesTheField) {
+  TsdfOptions o;
+  EXPECT_EQ(o.Check(), "");
+  o.truncation_m = 0.005;
+  EXPECT_NE(o.Check().find("truncation_m"), std::string::npos);
+}
+
+// ---------------------------------------------------------------- integration
+
+// The truncated projective distance of a frontal plane at depth `plane_z` is exact:
+// sdf = min(1, (plane_z − z) / truncation) for every voxel in view up to one truncation behind.
+TEST(TsdfIntegrate, FrontalPlaneIsExact) {
+  const PinholeCamera camera = SmallCamera();
+  TsdfVolume volume(SmallOptions());
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.0);
+  const IntegrateStats stats = volume.Integrate(depth, camera, pose);
+  EXPECT_EQ(stats.blocks_allocated, static_cast<int>(volume.NumBlocks()));
+  EXPECT_EQ(stats.blocks_visible, stats.blocks_allocated);
+  EXPECT_GT(stats.voxels_updated, 0);
+  const float h = volume.voxel_size_m(), t = 0.03f;
+  int checked = 0;
+  int64_t observed = 0;
+  volume.ForEachBlock([&](const VoxelBlock& block) {
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
+      const Eigen::Vector3f p = v.cast<float>() * h;
+      const Voxel& voxel = block.voxels[i];
+      observed += voxel.weight > 0;
+      int px, py;
+      const bool in_view = camera.NearestPixel(camera.Project(p), px, py);
+      if (!in_view || p.z() > 1.0f + t + 1e-4f) {
+        EXPECT_EQ(voxel.weight, 0) << p.transpose();
+        continue;
+      }
+      if (p.z() > 1.0f + t - 1e-4f) continue;  // on the cut-off, either way
+      ASSERT_EQ(voxel.weight, 1) << p.transpose();
+      EXPECT_NEAR(voxel.sdf, std::min(1.0f, (1.0f - p.z()) / t), 1e-5f) << p.transpose();
+      ++checked;
+    }
+  });
+  EXPECT_GT(checked, 10000);
+  EXPECT_EQ(observed, stats.voxels_updated);
+  // Blocks only around z = 1 m: the band [0.97, 1.03] lies in block layer 12 ([0.96, 1.04)).
+  volume.ForEachBlock([&](const VoxelBlock& block) { EXPECT_EQ(block.key.z(), 12); });
+  // The plane seen is 160/120 × 120/120 m: blocks of 8 cm over it, with the partly covered
+  // ones at the rim: between the fully covered ones and those touching the footprint.
+  const int inner = 16 * 12, outer = 18 * 14;
+  EXPECT_GE(static_cast<int>(volume.NumBlocks()), inner);
+  EXPECT_LE(static_cast<int>(volume.NumBlocks()), outer);
+}
+
+TEST(TsdfIntegrate, WeightsCountFramesAndCap) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.0);
+  TsdfOptions options = SmallOptions();
+  TsdfVolume volume(options);
+  options.max_weight = 2;
+  TsdfVolume capped(options);
+  for (int frame = 0; frame < 3; ++frame) {
+    const IntegrateStats stats = volume.Integrate(depth, camera, pose);
+    EXPECT_EQ(stats.blocks_allocated, frame == 0 ? static_cast<int>(volume.NumBlocks()) : 0);
+    EXPECT_EQ(stats.blocks_visible, static_cast<int>(volume.NumBlocks()));
+    capped.Integrate(depth, camera, pose);
+  }
+  // 1 cm in front of the plane. Tolerances 1e-5: the voxel's z is 99 · 0.01f in float, and
+  // 1 − z loses 5 digits to cancellation.
+  const Eigen::Vector3i v(0, 0, 99);
+  ASSERT_NE(volume.FindVoxel(v), nullptr);
+  EXPECT_EQ(volume.FindVoxel(v)->weight, 3);
+  EXPECT_NEAR(volume.FindVoxel(v)->sdf, 1.0f / 3, 1e-5f);
+  EXPECT_EQ(capped.FindVoxel(v)->weight, 2);
+  EXPECT_NEAR(capped.FindVoxel(v)->sdf, 1.0f / 3, 1e-5f);
+  // A moved plane: the capped volume follows it faster (it weighs the old one 2:1, not 3:1).
+  const cv::Mat nearer = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 0.995);
+  volume.Integrate(nearer, camera, pose);
+  capped.Integrate(nearer, camera, pose);
+  const float new_sdf = (0.995f - 0.99f) / 0.03f;
+  EXPECT_NEAR(volume.FindVoxel(v)->sdf, (3 * (1.0f / 3) + new_sdf) / 4, 1e-5f);
+  EXPECT_NEAR(capped.FindVoxel(v)->sdf, (2 * (1.0f / 3) + new_sdf) / 3, 1e-5f);
+}
+
+TEST(TsdfIntegrate, SameResultOnAnyThreadCount) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = test::LookAt({0.1, -0.2, 0}, {0, 0, 1.2});
+  const cv::Mat depth = test::RenderSphere(camera, pose, {0, 0, 1.2}, 0.3);
+  TsdfVolume one(SmallOptions(1)), three(SmallOptions(3));
+  one.Integrate(depth, camera, pose);
+  three.Integrate(depth, camera, pose);
+  ASSERT_EQ(one.NumBlocks(), three.NumBlocks());
+  one.ForEachBlock([&](const VoxelBlock& block) {
+    const VoxelBlock* other = three.FindBlock(block.key);
+    ASSERT_NE(other, nullptr);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      EXPECT_EQ(block.voxels[i].sdf, other->voxels[i].sdf);
+      EXPECT_EQ(block.voxels[i].weight, other->voxels[i].weight);
+    }
+  });
+}
+
+// A sphere: the projective distance d(pixel) − z is not the Euclidean distance δ to the
+// sphere. Along the viewing ray, the surface lies at distance δ / cos θ (θ between the ray and
+// the normal) to first order, plus a curvature term of order δ² / R; bilinear depth adds
+// the error of interpolating the depth between pixel centres (second order: depth slope
+// change over a pixel, below 0.2 mm here away from the rim). The stored value must lie within
+// that bound of the truth — and carry its sign.
+TEST(TsdfIntegrate, SphereDistanceBiasIsBounded) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const Eigen::Vector3d centre(0.05, 0, 1.0);
+  const double radius = 0.3;
+  const cv::Mat depth = test::RenderSphere(camera, pose, centre, radius);
+  TsdfVolume volume(SmallOptions());
+  volume.Integrate(depth, camera, pose);
+  const double h = volume.options().voxel_size_m, t = volume.options().truncation_m;
+  int checked = 0;
+  double worst = 0;
+  volume.ForEachBlock([&](const VoxelBlock& block) {
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const Voxel& voxel = block.voxels[i];
+      if (voxel.weight == 0) continue;
+      const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
+      const Eigen::Vector3d p = v.cast<double>() * h;
+      const double delta = (p - centre).norm() - radius;  // true signed distance
+      const Eigen::Vector3d normal = (p - centre).normalized();
+      const double cos_theta = std::abs(normal.dot(p.normalized()));
+      if (cos_theta < 0.7 || std::abs(delta) > 0.6 * t) continue;  // rim; saturated band
+      const double stored = static_cast<double>(voxel.sdf) * t;
+      const double bound = std::abs(delta) * (1 / cos_theta - 1) + 2 * delta * delta / radius + 2e-4;
+      EXPECT_NEAR(stored, delta, bound) << p.transpose();
+      if (std::abs(delta) > 2e-4) {
+        EXPECT_EQ(stored > 0, delta > 0) << p.transpose();
+      }
+      worst = std::max(worst, std::abs(stored - delta));
+      ++checked;
+    }
+  });
+  EXPECT_GT(checked, 3000);
+  RecordProperty("worst_error_m", std::to_string(worst));
+  // Blocks only near the surface: the band (2 · truncation, 6 cm) over the visible cap
+  // (at most a hemisphere, 2πR² = 0.57 m²) is at most 0.034 m³; whole blocks
+  // (0.08³ m³ = 5.1e-4 m³) around it: a band widened by a block diagonal each side.
+  const double band_blocks = 2 * M_PI * radius * radius * (2 * t + 2 * 0.08 * std::sqrt(3.0)) / std::pow(0.08, 3);
+  EXPECT_LE(static_cast<double>(volume.NumBlocks()), band_blocks);
+  // ... and at least the blocks of one layer under the sphere's disc (πR² / 0.08²).
+  EXPECT_GE(static_cast<double>(volume.NumBlocks()), M_PI * radius * radius / std::pow(0.08, 2));
+  Eigen::Vector3f lo, hi;
+  volume.Bounds(lo, hi);
+  EXPECT_GE(static_cast<double>(lo.z()), 1.0 - radius - t - 0.08 - 1e-4);  // a block of slack
+  EXPECT_LE(static_cast<double>(hi.z()), 1.0 + t + 0.08);                 // nothing past the rim's band
+}
+
+TEST(TsdfIntegrate, UniformColour) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.0);
+  ColourView colour;
+  colour.rgb = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(200, 100, 50));
+  colour.camera = camera;
+  // A colour camera 3 cm to the side, as on a rig: the plane is uniform, so it sees the same.
+  colour.world_from_camera = core::Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.03, 0, 0));
+  TsdfVolume volume(SmallOptions());
+  volume.Integrate(depth, camera, pose, &colour);
+  volume.Integrate(depth, camera, pose, &colour);
+  const Voxel* in_band = volume.FindVoxel({0, 0, 98});
+  ASSERT_NE(in_band, nullptr);
+  EXPECT_EQ(in_band->colour, Rgb8(200, 100, 50));
+  EXPECT_EQ(in_band->colour_weight, 2);
+  const Voxel* in_front = volume.FindVoxel({0, 0, 96});  // 4 cm in front: outside the band
+  ASSERT_NE(in_front, nullptr);
+  EXPECT_EQ(in_front->weight, 2);
+  EXPECT_EQ(in_front->colour_weight, 0);
+  const auto at_surface = volume.ColourAt(Eigen::Vector3f(0.004f, 0.002f, 1.0f));
+  ASSERT_TRUE(at_surface.has_value());
+  EXPECT_EQ(*at_surface, Rgb8(200, 100, 50));
+}
+
+TEST(TsdfIntegrate, NothingToFuse) {
+  const PinholeCamera camera = SmallCamera();
+  TsdfVolume volume(SmallOptions());
+  cv::Mat zeros(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
+  IntegrateStats stats = volume.Integrate(zeros, camera, core::Rigid3d::Identity());
+  EXPECT_EQ(stats.blocks_allocated, 0);
+  EXPECT_EQ(stats.blocks_visible, 0);
+  EXPECT_EQ(stats.voxels_updated, 0);
+  cv::Mat nan(camera.height, camera.width, CV_32FC1, cv::Scalar(std::nan("")));
+  stats = volume.Integrate(nan, camera, core::Rigid3d::Identity());
+  EXPECT_EQ(stats.blocks_allocated, 0);
+  // Beyond max_depth_m (4 m) or nearer than min_depth_m (0.3 m): not fused.
+  cv::Mat far(camera.height, camera.width, CV_32FC1, cv::Scalar(4.5));
+  cv::Mat near(camera.height, camera.width, CV_32FC1, cv::Scalar(0.2));
+  volume.Integrate(far, camera, core::Rigid3d::Identity());
+  volume.Integrate(near, camera, core::Rigid3d::Identity());
+  EXPECT_EQ(volume.NumBlocks(), 0u);
+}
+
+}  // namespace
+}  // namespace hw::reconstruct
