@@ -39,8 +39,12 @@ struct IcpOptions {
   // failed alignment, not motion (a hand-held rig moves < 2 m/s, < 180°/s).
   double max_jump_m = 0.10;           // m, > 0
   double max_jump_deg = 10;           // degrees, > 0
-  // Photometric term (0: off): weight of intensity residuals against geometric ones, for
-  // geometry that does not constrain the pose (a flat wall). >= 0.
+  // Photometric term (0: off), for geometry that does not constrain the pose (a flat wall):
+  // each geometric inlier also contributes the difference of grey levels (in [0, 1]) between
+  // the model (PointMap::colours, bilinear at the projected pixel) and the live frame
+  // (DepthLevel::intensity), times this weight: a black/white difference counts as this many
+  // metres of point-to-plane error (same Huber threshold). Used only when both sides have
+  // colour. m per grey level, in [0, 1]; 0.1 balances 2 mm depth noise with 0.02 grey noise.
   double photometric_weight = 0;
   int num_threads = 0;  // 0: hardware concurrency
 
