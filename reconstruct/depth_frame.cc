@@ -218,20 +218,29 @@ cv::Mat HalfDepth(const cv::Mat& depth_m, float sigma_depth_m, int num_threads) 
 PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_jump_fraction,
                int num_threads) {
   const int w = depth_m.cols, h = depth_m.rows;
-  PointMap map(w, h);
+  // Not PointMap(w, h): its NaN fill would write both maps once more; every pixel is written
+  // below (Eigen vectors are left uninitialised by resize).
+  PointMap map;
+  map.width = w;
+  map.height = h;
+  map.points.resize(size_t(w) * h);
+  map.normals.resize(size_t(w) * h);
   const float inv_fx = 1.0f / camera.fx, inv_fy = 1.0f / camera.fy;
+  const Eigen::Vector3f invalid = InvalidPoint();
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* row = depth_m.ptr<float>(y);
       Eigen::Vector3f* points = map.points.data() + map.Index(0, y);
       for (int x = 0; x < w; ++x) {
         const float z = row[x];
-        if (z > 0) points[x] = {(x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z};
+        points[x] = z > 0 ? Eigen::Vector3f((x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z)
+                          : invalid;
       }
     }
   });
   // Normals read the neighbouring rows' points: a second pass after all points exist.
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* row = map.points[map.Index(0, y)].data();
@@ -241,6 +250,7 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
       for (int x = 0; x < w; ++x) {
         const float* p = row + 3 * x;
         const float z = p[2];
+        normals[3 * x] = normals[3 * x + 1] = normals[3 * x + 2] = nan;  // unless computed below
         if (std::isnan(z)) continue;
         const float limit = max_jump_fraction * z;
         // A neighbour is usable when valid (NaN fails the test) and within the jump limit.

@@ -84,7 +84,8 @@ struct IcpResult {
   double residual_rms_m = 0;        // RMS point-to-plane residual of the inliers, m
   double condition = 0;             // of the last normal matrix (inf when singular)
   int iterations = 0;               // total over levels
-  // The 6×6 normal matrix Σ w J Jᵀ of the final iteration, in the tangent the updates use:
+  // The 6×6 normal matrix Σ w J Jᵀ of the final iteration (photometric rows included when
+  // that term is on), in the tangent the updates use:
   // world_from_camera · Exp(ξ), ξ = [rotation (rad); translation (m)] in the camera frame
   // (core::Rigid3d::Exp). Its inverse times residual_rms_m² approximates the covariance of ξ.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
