@@ -249,6 +249,26 @@ Matrix6d NormalMatrix(const Sums& sums) {
   return A;
 }
 
+// The Gauss-Newton step -A⁻¹ b restricted to the directions the data constrain: in the
+// eigenbasis of A (rotation scaled by the lever), directions whose eigenvalue is below
+// largest / max_condition get no update. A flat wall leaves its in-plane motion free; a
+// plain solve would slide the estimate along it by whatever the noise says, this keeps the
+// prediction there (and the condition check reports the frame).
+Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
+  Vector6d scale;
+  scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
+  const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
+  const Vector6d& eig = solver.eigenvalues();  // ascending
+  if (!(eig(5) > 0)) return Vector6d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const Vector6d rhs = solver.eigenvectors().transpose() * (scale.asDiagonal() * -b);
+  Vector6d in_eigenbasis = Vector6d::Zero();
+  for (int k = 0; k < 6; ++k) {
+    if (eig(k) * max_condition >= eig(5)) in_eigenbasis(k) = rhs(k) / eig(k);
+  }
+  return scale.asDiagonal() * (solver.eigenvectors() * in_eigenbasis);
+}
+
 double Condition(const Matrix6d& A) {
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
@@ -431,12 +451,8 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
       last_A = NormalMatrix(last);
       ++result.iterations;
       if (last.inliers < 6) break;  // fewer equations than unknowns
-      const Vector6d b = Eigen::Map<const Vector6d>(last.atb.data());
-      // A tiny damping keeps the step finite along directions the geometry leaves free (a
-      // plane's in-plane motion); the condition check reports such a system.
-      Matrix6d damped = last_A;
-      damped.diagonal().array() += 1e-9 * last_A.trace() / 6.0 + 1e-300;
-      const Vector6d xi = damped.ldlt().solve(-b);
+      const Vector6d xi = Step(last_A, Eigen::Map<const Vector6d>(last.atb.data()),
+                               options.max_condition);
       if (!xi.allFinite()) break;
       estimate = estimate * core::Rigid3d::Exp(xi);
       if (xi.head<3>().norm() < options.min_update_rad && xi.tail<3>().norm() < options.min_update_m) {

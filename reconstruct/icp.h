@@ -15,7 +15,8 @@
 namespace hw::reconstruct {
 
 struct IcpOptions {
-  // Iterations per pyramid level, finest (level 0) first; a level with 0 is skipped.
+  // Iterations per pyramid level, finest (level 0) first, each in [0, 100], at least one
+  // > 0; a level with 0 is skipped.
   std::array<int, 3> iterations = {4, 5, 10};
   // Association gates: a live point and the model point it projects onto pair up when they
   // are at most max_distance_m apart and their normals within max_normal_angle_deg.
@@ -32,7 +33,8 @@ struct IcpOptions {
   int min_inliers = 300;              // absolute floor, >= 6
   // Largest ratio of largest to smallest eigenvalue of the 6×6 normal matrix (after
   // scaling rotation by a 1 m lever): above it the geometry does not constrain all six
-  // degrees of freedom (a flat wall, a corridor). > 1.
+  // degrees of freedom (a flat wall, a corridor). Directions weaker than that get no update
+  // (the estimate keeps the initial pose there). > 1.
   double max_condition = 1e5;
   double max_residual_m = 0.02;       // RMS point-to-plane residual of inliers, m, > 0
   // Largest plausible change from the predicted pose in one frame; a bigger jump is a

@@ -271,6 +271,16 @@ TEST(AlignToModel, AFlatWallIsIllConditioned) {
   EXPECT_EQ(result.status, IcpStatus::kIllConditioned) << IcpStatusName(result.status);
   EXPECT_GT(result.condition, IcpOptions().max_condition);
   EXPECT_GT(result.inliers, 0.9 * result.valid_points);  // not a failure of association
+  // What the wall constrains is found: the camera's height above it (measured 1 µm; float
+  // rounding at 1.5 m is ~0.2 µm per point)...
+  const core::Rigid3d truth = reference * core::Rigid3d::Exp(xi);
+  EXPECT_NEAR(result.world_from_camera.translation.z(), truth.translation.z(), 2e-5);
+  // ...and the free directions are left at the prediction instead of sliding with noise
+  // (the true motion is 1.7 cm; measured 1.1 cm from the prediction, the constrained part).
+  const DepthPyramid noisy = LiveOf(scene, truth, 0.004, 3);
+  const IcpResult noisy_result = AlignToModel(noisy, ModelOf(scene, reference), reference, IcpOptions());
+  EXPECT_EQ(noisy_result.status, IcpStatus::kIllConditioned);
+  EXPECT_LT(core::ComparePoses(noisy_result.world_from_camera, reference).translation_m, 0.03);
 }
 
 TEST(AlignToModel, AJumpBeyondTheLimitIsImplausible) {
