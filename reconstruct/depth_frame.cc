@@ -218,20 +218,29 @@ cv::Mat HalfDepth(const cv::Mat& depth_m, float sigma_depth_m, int num_threads) 
 PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_jump_fraction,
                int num_threads) {
   const int w = depth_m.cols, h = depth_m.rows;
-  PointMap map(w, h);
+  // Not PointMap(w, h): its NaN fill would write both maps once more; every pixel is written
+  // below (Eigen vectors are left uninitialised by resize).
+  PointMap map;
+  map.width = w;
+  map.height = h;
+  map.points.resize(size_t(w) * h);
+  map.normals.resize(size_t(w) * h);
   const float inv_fx = 1.0f / camera.fx, inv_fy = 1.0f / camera.fy;
+  const Eigen::Vector3f invalid = InvalidPoint();
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* row = depth_m.ptr<float>(y);
       Eigen::Vector3f* points = map.points.data() + map.Index(0, y);
       for (int x = 0; x < w; ++x) {
         const float z = row[x];
-        if (z > 0) points[x] = {(x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z};
+        points[x] = z > 0 ? Eigen::Vector3f((x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z)
+                          : invalid;
       }
     }
   });
   // Normals read the neighbouring rows' points: a second pass after all points exist.
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* row = map.points[map.Index(0, y)].data();
@@ -241,6 +250,7 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
       for (int x = 0; x < w; ++x) {
         const float* p = row + 3 * x;
         const float z = p[2];
+        normals[3 * x] = normals[3 * x + 1] = normals[3 * x + 2] = nan;  // unless computed below
         if (std::isnan(z)) continue;
         const float limit = max_jump_fraction * z;
         // A neighbour is usable when valid (NaN fails the test) and within the jump limit.
@@ -273,6 +283,34 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
     }
   });
   return map;
+}
+
+// Rec. 601 luma of an RGB image, in [0, 1].
+cv::Mat Grey(const cv::Mat& rgb) {
+  cv::Mat out(rgb.size(), CV_32FC1);
+  for (int y = 0; y < rgb.rows; ++y) {
+    const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
+    float* dst = out.ptr<float>(y);
+    for (int x = 0; x < rgb.cols; ++x) {
+      dst[x] = (0.299f * src[3 * x] + 0.587f * src[3 * x + 1] + 0.114f * src[3 * x + 2]) *
+               (1.0f / 255.0f);
+    }
+  }
+  return out;
+}
+
+// 2×2 block means.
+cv::Mat HalfIntensity(const cv::Mat& intensity) {
+  cv::Mat out(intensity.rows / 2, intensity.cols / 2, CV_32FC1);
+  for (int y = 0; y < out.rows; ++y) {
+    const float* top = intensity.ptr<float>(2 * y);
+    const float* bottom = intensity.ptr<float>(2 * y + 1);
+    float* dst = out.ptr<float>(y);
+    for (int x = 0; x < out.cols; ++x) {
+      dst[x] = 0.25f * (top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1]);
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -344,7 +382,7 @@ std::string DepthFilterOptions::Check() const {
 }
 
 DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
-                               const DepthFilterOptions& options) {
+                               const DepthFilterOptions& options, const cv::Mat& rgb) {
   assert(options.Check().empty());
   assert(depth_m.type() == CV_32FC1);
   assert(depth_m.cols == camera.width && depth_m.rows == camera.height);
@@ -363,6 +401,10 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   level0.camera = camera;
   level0.depth_m = Bilateral(pyramid.raw_depth_m, options);
   level0.map = MapOf(level0.depth_m, camera, normal_jump, options.num_threads);
+  if (!rgb.empty()) {
+    assert(rgb.type() == CV_8UC3 && rgb.cols == camera.width && rgb.rows == camera.height);
+    level0.intensity = Grey(rgb);
+  }
   pyramid.levels.push_back(std::move(level0));
   for (int l = 1; l < options.num_levels; ++l) {
     const DepthLevel& above = pyramid.levels.back();
@@ -372,6 +414,7 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
     level.depth_m = HalfDepth(above.depth_m, static_cast<float>(options.bilateral_sigma_depth_m),
                               options.num_threads);
     level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
+    if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity);
     pyramid.levels.push_back(std::move(level));
   }
   return pyramid;

@@ -64,6 +64,10 @@ struct DepthLevel {
   PinholeCamera camera;
   cv::Mat depth_m;  // CV_32FC1, filtered, 0 = none
   PointMap map;     // points and normals in the camera frame
+  // Grey level of each pixel (CV_32FC1, in [0, 1]: Rec. 601 luma of the registered colour;
+  // each level the 2×2 mean of the one above), for ICP's photometric term. Empty when the
+  // pyramid was built without colour.
+  cv::Mat intensity;
 };
 
 // A prepared depth frame: level 0 is full resolution.
@@ -76,9 +80,11 @@ struct DepthPyramid {
 // range limits and edge cleaning on raw_depth_m, the bilateral filter on level 0, each next
 // level a 2×2 block mean of the one above over pixels within 3 sigma of the block's first
 // valid pixel (KinectFusion's pyramid: it never averages across an edge), points by
-// unprojection and normals from the cross product of central differences. Asserts the image
-// type and size match the camera.
+// unprojection and normals from the cross product of central differences. Optional `rgb`
+// (CV_8UC3, R G B order as PointMap::colours, the same size as the depth and registered to
+// it: pixel (u, v) is the colour of depth pixel (u, v)) fills DepthLevel::intensity. Asserts
+// the image types and sizes match the camera.
 DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
-                               const DepthFilterOptions& options);
+                               const DepthFilterOptions& options, const cv::Mat& rgb = cv::Mat());
 
 }  // namespace hw::reconstruct

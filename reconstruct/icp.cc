@@ -79,7 +79,31 @@ struct Pass {
   float max_distance_sq = 0;
   float min_normal_cos = 0;
   float huber = 0;
+  // Photometric term, when both are set: the live grey levels (row-major like the live map)
+  // and the model's (NaN where unknown), and the term's weight (m per grey level).
+  float model_from_live_r[9] = {};  // rotation of model_from_world · world_from_live
+  const float* live_intensity = nullptr;
+  const float* model_intensity = nullptr;
+  float photometric_weight = 0;
 };
+
+// Adds w x xᵀ (x = [J; r; 0]) to a row's 7×8 block: rows 0–3 need columns 0–7, rows 4–6 only
+// columns 4–7 (the upper triangle and column 6 are read). Fixed trip counts: vectorised.
+inline void AddTerm(float (&acc)[7][8], const float (&x_aug)[8], float w) {
+  for (int a = 0; a < 4; ++a) {
+    const float w_xa = w * x_aug[a];
+    for (int b = 0; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
+  }
+  for (int a = 4; a < 7; ++a) {
+    const float w_xa = w * x_aug[a];
+    for (int b = 4; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
+  }
+}
+
+inline float HuberWeight(float r, float k) {
+  const float abs_r = std::abs(r);
+  return abs_r <= k ? 1.0f : k / abs_r;
+}
 
 // The hot loop reads point maps as packed float triples.
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
@@ -136,23 +160,42 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
       const float ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
       if (ncx * n[0] + ncy * n[1] + ncz * n[2] < pass.min_normal_cos) continue;
       const float r = nm[0] * dx + nm[1] * dy + nm[2] * dz;
-      const float abs_r = std::abs(r);
-      const float w = abs_r <= pass.huber ? 1.0f : pass.huber / abs_r;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
       // dr/dω = p × n_c, dr/dv = n_c.
       const float x_aug[8] = {p[1] * ncz - p[2] * ncy, p[2] * ncx - p[0] * ncz,
                               p[0] * ncy - p[1] * ncx, ncx, ncy, ncz, r, 0.0f};
-      // Rows 0–3 need columns 0–7, rows 4–6 only columns 4–7 (upper triangle and column 6).
-      for (int a = 0; a < 4; ++a) {
-        const float w_xa = w * x_aug[a];
-        for (int b = 0; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
-      }
-      for (int a = 4; a < 7; ++a) {
-        const float w_xa = w * x_aug[a];
-        for (int b = 4; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
-      }
+      AddTerm(acc, x_aug, HuberWeight(r, pass.huber));
       sum_r_sq += r * r;
       ++inliers;
+      if (pass.live_intensity != nullptr) {
+        // Photometric residual of this pair: the model's grey level, bilinear at the
+        // projected pixel, minus the live one; weighted into metres by photometric_weight.
+        const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
+        if (u0 < 0 || v0 < 0 || u0 + 1 >= cam.width || v0 + 1 >= cam.height) continue;
+        const float* g0 = pass.model_intensity + size_t(v0) * cam.width + u0;
+        const float* g1 = g0 + cam.width;
+        const float i00 = g0[0], i10 = g0[1], i01 = g1[0], i11 = g1[1];
+        const float live_i = pass.live_intensity[row + x];
+        if (std::isnan(i00 + i10 + i01 + i11 + live_i)) continue;
+        const float fu = u - u0, fv = v - v0;
+        const float model_i = (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
+        // Gradient of the bilinear patch (per pixel), then d(grey)/d(p_model) through the
+        // projection, then into the live camera frame (g_c = (M R)ᵀ g_m): the Jacobian has
+        // the geometric one's form with g_c in place of n_c.
+        const float gu = (1 - fv) * (i10 - i00) + fv * (i11 - i01);
+        const float gv = (1 - fu) * (i01 - i00) + fu * (i11 - i10);
+        const float lambda = pass.photometric_weight;
+        const float gmx = lambda * gu * cam.fx * inv_z, gmy = lambda * gv * cam.fy * inv_z;
+        const float gmz = -(gmx * mx + gmy * my) * inv_z;
+        const float* MR = pass.model_from_live_r;
+        const float gcx = MR[0] * gmx + MR[3] * gmy + MR[6] * gmz;
+        const float gcy = MR[1] * gmx + MR[4] * gmy + MR[7] * gmz;
+        const float gcz = MR[2] * gmx + MR[5] * gmy + MR[8] * gmz;
+        const float ri = lambda * (model_i - live_i);
+        const float xi_aug[8] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
+                                 p[0] * gcy - p[1] * gcx, gcx, gcy, gcz, ri, 0.0f};
+        AddTerm(acc, xi_aug, HuberWeight(ri, pass.huber));
+      }
     }
     int k = 0;
     for (int a = 0; a < 6; ++a) {
@@ -181,6 +224,18 @@ Sums Accumulate(const Pass& pass, int num_threads) {
   return total;
 }
 
+// Rec. 601 luma (as BuildDepthPyramid's intensity) of a map's colours, in [0, 1]; NaN where
+// the map has no point.
+std::vector<float> GreyOf(const PointMap& map) {
+  std::vector<float> grey(map.points.size(), std::numeric_limits<float>::quiet_NaN());
+  for (size_t i = 0; i < grey.size(); ++i) {
+    if (!IsValid(map.points[i])) continue;
+    const Rgb8& c = map.colours[i];
+    grey[i] = (0.299f * c[0] + 0.587f * c[1] + 0.114f * c[2]) * (1.0f / 255.0f);
+  }
+  return grey;
+}
+
 Matrix6d NormalMatrix(const Sums& sums) {
   Matrix6d A;
   int k = 0;
@@ -192,6 +247,26 @@ Matrix6d NormalMatrix(const Sums& sums) {
     }
   }
   return A;
+}
+
+// The Gauss-Newton step -A⁻¹ b restricted to the directions the data constrain: in the
+// eigenbasis of A (rotation scaled by the lever), directions whose eigenvalue is below
+// largest / max_condition get no update. A flat wall leaves its in-plane motion free; a
+// plain solve would slide the estimate along it by whatever the noise says, this keeps the
+// prediction there (and the condition check reports the frame).
+Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
+  Vector6d scale;
+  scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
+  const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
+  const Vector6d& eig = solver.eigenvalues();  // ascending
+  if (!(eig(5) > 0)) return Vector6d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const Vector6d rhs = solver.eigenvectors().transpose() * (scale.asDiagonal() * -b);
+  Vector6d in_eigenbasis = Vector6d::Zero();
+  for (int k = 0; k < 6; ++k) {
+    if (eig(k) * max_condition >= eig(5)) in_eigenbasis(k) = rhs(k) / eig(k);
+  }
+  return scale.asDiagonal() * (solver.eigenvectors() * in_eigenbasis);
 }
 
 double Condition(const Matrix6d& A) {
@@ -240,8 +315,8 @@ std::string IcpOptions::Check() const {
   if (!(max_residual_m > 0)) return Fail("max_residual_m", max_residual_m, "> 0 m");
   if (!(max_jump_m > 0)) return Fail("max_jump_m", max_jump_m, "> 0 m");
   if (!(max_jump_deg > 0)) return Fail("max_jump_deg", max_jump_deg, "> 0 degrees");
-  if (!(photometric_weight >= 0) || !std::isfinite(photometric_weight)) {
-    return Fail("photometric_weight", photometric_weight, ">= 0 and finite");
+  if (!(photometric_weight >= 0 && photometric_weight <= 1)) {
+    return Fail("photometric_weight", photometric_weight, "in [0, 1] m per grey level");
   }
   if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0 (0: hardware concurrency)");
   return "";
@@ -358,18 +433,26 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
     pass.max_distance_sq = static_cast<float>(gate * gate);
     pass.min_normal_cos = min_normal_cos;
     pass.huber = static_cast<float>(options.huber_m);
+    // Photometric term: needs grey levels on both sides.
+    std::vector<float> model_intensity;
+    const cv::Mat& live_intensity = live.levels[l].intensity;
+    if (options.photometric_weight > 0 && !live_intensity.empty() && !model_map.colours.empty()) {
+      assert(live_intensity.isContinuous() && live_intensity.cols == live_map.width);
+      model_intensity = GreyOf(model_map);
+      pass.live_intensity = live_intensity.ptr<float>();
+      pass.model_intensity = model_intensity.data();
+      pass.photometric_weight = static_cast<float>(options.photometric_weight);
+    }
     for (int it = 0; it < options.iterations[l]; ++it) {
       pass.world_from_live = Affine::Of(estimate);
+      const Affine model_from_live = Affine::Of(model_from_world * estimate);
+      std::copy(model_from_live.r, model_from_live.r + 9, pass.model_from_live_r);
       last = Accumulate(pass, options.num_threads);
       last_A = NormalMatrix(last);
       ++result.iterations;
       if (last.inliers < 6) break;  // fewer equations than unknowns
-      const Vector6d b = Eigen::Map<const Vector6d>(last.atb.data());
-      // A tiny damping keeps the step finite along directions the geometry leaves free (a
-      // plane's in-plane motion); the condition check reports such a system.
-      Matrix6d damped = last_A;
-      damped.diagonal().array() += 1e-9 * last_A.trace() / 6.0 + 1e-300;
-      const Vector6d xi = damped.ldlt().solve(-b);
+      const Vector6d xi = Step(last_A, Eigen::Map<const Vector6d>(last.atb.data()),
+                               options.max_condition);
       if (!xi.allFinite()) break;
       estimate = estimate * core::Rigid3d::Exp(xi);
       if (xi.head<3>().norm() < options.min_update_rad && xi.tail<3>().norm() < options.min_update_m) {

@@ -15,7 +15,8 @@
 namespace hw::reconstruct {
 
 struct IcpOptions {
-  // Iterations per pyramid level, finest (level 0) first; a level with 0 is skipped.
+  // Iterations per pyramid level, finest (level 0) first, each in [0, 100], at least one
+  // > 0; a level with 0 is skipped.
   std::array<int, 3> iterations = {4, 5, 10};
   // Association gates: a live point and the model point it projects onto pair up when they
   // are at most max_distance_m apart and their normals within max_normal_angle_deg.
@@ -32,15 +33,20 @@ struct IcpOptions {
   int min_inliers = 300;              // absolute floor, >= 6
   // Largest ratio of largest to smallest eigenvalue of the 6×6 normal matrix (after
   // scaling rotation by a 1 m lever): above it the geometry does not constrain all six
-  // degrees of freedom (a flat wall, a corridor). > 1.
+  // degrees of freedom (a flat wall, a corridor). Directions weaker than that get no update
+  // (the estimate keeps the initial pose there). > 1.
   double max_condition = 1e5;
   double max_residual_m = 0.02;       // RMS point-to-plane residual of inliers, m, > 0
   // Largest plausible change from the predicted pose in one frame; a bigger jump is a
   // failed alignment, not motion (a hand-held rig moves < 2 m/s, < 180°/s).
   double max_jump_m = 0.10;           // m, > 0
   double max_jump_deg = 10;           // degrees, > 0
-  // Photometric term (0: off): weight of intensity residuals against geometric ones, for
-  // geometry that does not constrain the pose (a flat wall). >= 0.
+  // Photometric term (0: off), for geometry that does not constrain the pose (a flat wall):
+  // each geometric inlier also contributes the difference of grey levels (in [0, 1]) between
+  // the model (PointMap::colours, bilinear at the projected pixel) and the live frame
+  // (DepthLevel::intensity), times this weight: a black/white difference counts as this many
+  // metres of point-to-plane error (same Huber threshold). Used only when both sides have
+  // colour. m per grey level, in [0, 1]; 0.1 balances 2 mm depth noise with 0.02 grey noise.
   double photometric_weight = 0;
   int num_threads = 0;  // 0: hardware concurrency
 
@@ -80,7 +86,8 @@ struct IcpResult {
   double residual_rms_m = 0;        // RMS point-to-plane residual of the inliers, m
   double condition = 0;             // of the last normal matrix (inf when singular)
   int iterations = 0;               // total over levels
-  // The 6×6 normal matrix Σ w J Jᵀ of the final iteration, in the tangent the updates use:
+  // The 6×6 normal matrix Σ w J Jᵀ of the final iteration (photometric rows included when
+  // that term is on), in the tangent the updates use:
   // world_from_camera · Exp(ξ), ξ = [rotation (rad); translation (m)] in the camera frame
   // (core::Rigid3d::Exp). Its inverse times residual_rms_m² approximates the covariance of ξ.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
