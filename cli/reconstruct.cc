@@ -66,7 +66,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_condition", r.icp.max_condition)
       .Number("max_residual_m", r.icp.max_residual_m)
       .Number("max_jump_m", r.icp.max_jump_m)
-      .Number("max_jump_deg", r.icp.max_jump_deg);
+      .Number("max_jump_deg", r.icp.max_jump_deg)
+      .Number("photometric_weight", r.icp.photometric_weight);
   raycast.Number("step_fraction", r.raycast.step_fraction);
   mesh.Number("min_weight", r.mesh.min_weight)
       .Int("min_component_triangles", r.mesh.min_component_triangles)
@@ -304,15 +305,23 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     }
   }
 
-  // Synthetic scans carry their true surface: measure the model against it.
+  // Synthetic scans carry their true surface: measure the model against it, in the truth's
+  // frame: the model is already there with --start-at-groundtruth, else it is moved there by
+  // the first fused pose (the ATE's position-only alignment is not used: a short sweep's
+  // positions are nearly collinear and leave the rotation about them free).
   const fs::path truth_mesh = scan.folder() / "truth" / "scene.ply";
   if (r.evaluation && core::ProbePath(truth_mesh).kind == core::PathKind::kRegularFile) {
+    core::Rigid3d truth_from_model;
+    if (!options.scan.start_at_groundtruth) {
+      const core::TimedPose& first = reconstruction.trajectory().poses().front();
+      if (const auto truth_first = scan.groundtruth()->At(first.timestamp_s)) {
+        truth_from_model = *truth_first * first.world_from_sensor.Inverse();
+      }
+    }
     const core::PlyMesh truth = core::ReadPly(truth_mesh);
     std::vector<Eigen::Vector3d> points;
     points.reserve(mesh.positions.size());
-    for (const Eigen::Vector3f& p : mesh.positions) {
-      points.push_back(r.evaluation->groundtruth_from_estimate * p.cast<double>());
-    }
+    for (const Eigen::Vector3f& p : mesh.positions) points.push_back(truth_from_model * p.cast<double>());
     r.surface = reconstruct::SummarizeDistances(
         reconstruct::PointToMeshDistances(points, truth.Positions(), truth.faces, kSurfaceSearchM));
   }
@@ -350,10 +359,14 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   out += core::StringPrintf("Memory     %zu blocks, volume %.1f MB, peak %.1f MB\n", r.blocks,
                             r.volume_bytes / 1e6, r.peak_rss_bytes / 1e6);
   if (r.evaluation) {
-    out += core::StringPrintf("Accuracy   against groundtruth.txt: ATE RMSE %.2f mm (max %.2f mm), "
-                              "RPE %.2f mm / %.3f deg per %s\n",
+    const std::string rpe =
+        r.evaluation->rpe_m.count > 0
+            ? core::StringPrintf("RPE %.2f mm / %.3f deg per 1 s", 1000 * r.evaluation->rpe_m.rmse,
+                                 r.evaluation->rpe_deg.rmse)
+            : std::string("RPE n/a (no poses 1 s apart)");
+    out += core::StringPrintf("Accuracy   against groundtruth.txt: ATE RMSE %.2f mm (max %.2f mm), %s\n",
                               1000 * r.evaluation->ate_m.rmse, 1000 * r.evaluation->ate_m.max,
-                              1000 * r.evaluation->rpe_m.rmse, r.evaluation->rpe_deg.rmse, "1 s");
+                              rpe.c_str());
   }
   if (r.surface) {
     out += core::StringPrintf("Surface    model to truth/scene.ply: median %.2f mm, 90%% %.2f mm, "
@@ -394,6 +407,8 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();
   bool no_colour = false;
   app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
+  app.add_option("--photometric-weight", r.icp.photometric_weight,
+                 "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();
   app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();

@@ -40,7 +40,7 @@ struct ReconstructCommandResult {
   // Mean wall time per processed frame of each stage, ms.
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
   std::optional<reconstruct::TrajectoryEval> evaluation;  // when the scan has groundtruth
-  // Model vertices (moved by evaluation->groundtruth_from_estimate) to truth/scene.ply, when
+  // Model vertices (in the truth's frame: see RunReconstruction) to truth/scene.ply, when
   // the scan has both (synthetic scans).
   std::optional<reconstruct::SurfaceDistanceStats> surface;
   std::vector<std::string> warnings;

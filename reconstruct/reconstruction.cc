@@ -7,6 +7,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include <opencv2/core.hpp>
+
 #include "core/error.h"
 #include "core/strings.h"
 #include "reconstruct/option_check.h"
@@ -34,6 +36,28 @@ double Ms(std::chrono::steady_clock::time_point since) {
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 }  // namespace
+
+cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
+                       const cv::Mat& rgb, const PinholeCamera& rgb_camera,
+                       const core::Rigid3d& rgb_from_depth) {
+  assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3);
+  cv::Mat registered(depth_m.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  const Eigen::Matrix3f R = rgb_from_depth.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f t = rgb_from_depth.translation.cast<float>();
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* depth_row = depth_m.ptr<float>(y);
+    cv::Vec3b* out = registered.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      const float z = depth_row[x];
+      if (!(z > 0)) continue;
+      const Eigen::Vector3f p = R * depth_camera.Unproject(float(x), float(y), z) + t;
+      if (!(p.z() > 0)) continue;
+      int u = 0, v = 0;
+      if (rgb_camera.NearestPixel(rgb_camera.Project(p), u, v)) out[x] = rgb.at<cv::Vec3b>(v, u);
+    }
+  }
+  return registered;
+}
 
 std::string FrameStatusName(FrameStatus status) {
   switch (status) {
@@ -126,17 +150,46 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   record.timestamp_s = frame.timestamp_s;
 
   auto start = std::chrono::steady_clock::now();
+  // NaN / inf pixels are missing measurements, not numbers to fuse (a copy only when needed).
   cv::Mat depth_m = frame.depth_m;
-  if (cv::checkRange(depth_m, true) == false) {
-    // NaN / inf pixels are missing measurements, not numbers to fuse.
-    depth_m = frame.depth_m.clone();
-    depth_m.forEach<float>([](float& d, const int*) {
-      if (!std::isfinite(d)) d = 0;
-    });
+  for (int y = 0; y < depth_m.rows && depth_m.data == frame.depth_m.data; ++y) {
+    const float* row = frame.depth_m.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (!std::isfinite(row[x])) {
+        depth_m = frame.depth_m.clone();
+        break;
+      }
+    }
+  }
+  if (depth_m.data != frame.depth_m.data) {
+    for (int y = 0; y < depth_m.rows; ++y) {
+      float* row = depth_m.ptr<float>(y);
+      for (int x = 0; x < depth_m.cols; ++x) {
+        if (!std::isfinite(row[x])) row[x] = 0;
+      }
+    }
   }
   const cv::Mat undistorted = depth_undistorter_.UndistortDepth(depth_m);
-  const DepthPyramid pyramid =
-      BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(), options_.depth);
+  // The colour frame, undistorted once for both uses: registered to the depth pixels for
+  // ICP's photometric term, and projected into the volume by integration.
+  cv::Mat rgb_pinhole, registered_rgb;
+  const bool use_colour = rig_.rgb && !frame.rgb.empty() &&
+                          (options_.integrate_colour || options_.icp.photometric_weight > 0);
+  if (use_colour) {
+    rgb_pinhole = rgb_undistorter_.UndistortColour(frame.rgb);
+    if (options_.icp.photometric_weight > 0) {
+      // The rig moved between the two exposures: register with the predicted motion.
+      core::Rigid3d depth_from_rgb_now = rig_.depth_from_rgb;
+      if (!trajectory_.empty()) {
+        depth_from_rgb_now = PoseAt(frame.timestamp_s).Inverse() *
+                             PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
+      }
+      registered_rgb = RegisterColour(undistorted, depth_undistorter_.pinhole(), rgb_pinhole,
+                                      rgb_undistorter_.pinhole(), depth_from_rgb_now.Inverse());
+    }
+  }
+  const DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),
+                                                 options_.depth, registered_rgb);
   record.valid_depth_fraction =
       static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
   record.prepare_ms = Ms(start);
@@ -168,7 +221,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
-  Integrate(pyramid, frame, world_from_depth, record);
+  Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   UpdateModel(world_from_depth, record);
   frames_.push_back(record);
   return frames_.back();
@@ -224,12 +277,13 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
 }
 
 void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& frame,
+                               const cv::Mat& rgb_pinhole,
                                const core::Rigid3d& world_from_depth, FrameRecord& record) {
   const auto start = std::chrono::steady_clock::now();
   std::optional<ColourView> colour;
-  if (options_.integrate_colour && rig_.rgb && !frame.rgb.empty()) {
+  if (options_.integrate_colour && !rgb_pinhole.empty()) {
     colour.emplace();
-    colour->rgb = rgb_undistorter_.UndistortColour(frame.rgb);
+    colour->rgb = rgb_pinhole;
     colour->camera = rgb_undistorter_.pinhole();
     // The colour camera's pose at its own exposure time: interpolated between the last two
     // fused depth poses (this frame's included), extrapolated just beyond them.
@@ -244,7 +298,10 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
 void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record) {
   const auto start = std::chrono::steady_clock::now();
   const PinholeCamera& camera = depth_undistorter_.pinhole();
-  PointMap level0 = Raycast(volume_, camera, world_from_depth, options_.raycast);
+  RaycastOptions raycast = options_.raycast;
+  // The photometric term compares the live colour with the model's.
+  raycast.with_colour = options_.icp.photometric_weight > 0 && options_.integrate_colour && rig_.rgb;
+  PointMap level0 = Raycast(volume_, camera, world_from_depth, raycast);
   model_ = BuildModelPyramid(std::move(level0), camera, world_from_depth,
                              static_cast<int>(options_.icp.iterations.size()));
   record.raycast_ms = Ms(start);
