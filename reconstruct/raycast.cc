@@ -175,8 +175,9 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
             for (int i = 0; i < 3 && sa - sb > 0; ++i) {
               float s;
               if (!sampler.Sdf(origin + t_hit * direction, s)) break;
-              // |s| · truncation / |gradient| from the zero: 1e-3 · 2 cm = 0.02 mm.
-              if (std::abs(s) < 1e-3f) break;
+              // Within |s| · truncation (/ |gradient| ≈ 1) of the zero: 0.005 · 2 cm = 0.1 mm
+              // at the defaults, a fiftieth of a voxel.
+              if (std::abs(s) < 0.005f) break;
               if (s > 0) {
                 ta = t_hit;
                 sa = s;

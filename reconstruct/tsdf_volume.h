@@ -113,6 +113,12 @@ class TsdfVolume {
   // projective distance (weight +1, capped at max_weight); voxels more than truncation_m
   // behind the measured surface are left alone. When `colour` is given, voxels within the
   // band take the colour they project to (weighted running mean, same weights).
+  // Details (tsdf_integrate.cc): rays are walked for pixels sampled a quarter block apart
+  // at the frame's farthest depth (every pixel up to 8 apart); the blocks updated are the
+  // ones those rays touched this frame; depth is read bilinearly where the four pixels
+  // around a voxel's projection lie on one surface, else from the nearest pixel; colour
+  // from the nearest colour pixel. Asserts depth_m's type and size and rgb's (CV_8UC3,
+  // camera size). NaN depth counts as no measurement.
   IntegrateStats Integrate(const cv::Mat& depth_m, const PinholeCamera& camera,
                            const core::Rigid3d& world_from_camera,
                            const ColourView* colour = nullptr);
