@@ -15,6 +15,8 @@ find_package(OpenImageIO 2.4 REQUIRED)
 find_package(PNG 1.6 REQUIRED)
 find_package(OpenNI2 REQUIRED)
 find_package(GTest 1.12 REQUIRED)
+# absl::flat_hash_map: the TSDF's block hash (reconstruct/tsdf_volume_impl.h).
+find_package(absl REQUIRED)
 
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(apriltag REQUIRED IMPORTED_TARGET apriltag>=3.3)

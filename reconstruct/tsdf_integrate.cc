@@ -41,7 +41,7 @@ class SegmentBlocks {
     float t_max[3], t_delta[3];
     for (int i = 0; i < 3; ++i) {
       const float d = b[i] - a[i];
-      cell[i] = static_cast<int>(std::floor(a[i]));
+      cell[i] = FloorToInt(a[i]);
       if (d > 0) {
         step[i] = 1;
         t_delta[i] = 1.0f / d;
@@ -184,6 +184,12 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     colour_from_camera_rotation = colour_from_camera.rotation.toRotationMatrix().cast<float>();
     colour_from_camera_translation = colour_from_camera.translation.cast<float>();
   }
+  const float colour_fx = with_colour ? colour->camera.fx : 0, colour_fy = with_colour ? colour->camera.fy : 0;
+  const float colour_cx = with_colour ? colour->camera.cx : 0, colour_cy = with_colour ? colour->camera.cy : 0;
+  const float colour_u_limit = with_colour ? static_cast<float>(colour->camera.width) - 0.5f : 0;
+  const float colour_v_limit = with_colour ? static_cast<float>(colour->camera.height) - 0.5f : 0;
+  const std::uint8_t* colour_rgb = with_colour ? colour->rgb.ptr<std::uint8_t>(0) : nullptr;
+  const size_t colour_step = with_colour ? colour->rgb.step1() : 0;
   const float max_weight = static_cast<float>(options_.max_weight);
   const int max_colour_weight = static_cast<int>(std::min(options_.max_weight, 255.0));
   const float inv_truncation = 1.0f / truncation_m;
@@ -195,6 +201,13 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   const size_t depth_step = depth_m.step1();
   const float* depth = depth_m.ptr<float>(0);
 
+  // 1 / (w + 1) for every weight a voxel can hold (integers up to max_weight): a
+  // multiplication instead of a division per voxel.
+  if (impl.inv_count.empty()) {
+    impl.inv_count.resize(static_cast<size_t>(max_weight) + 1);
+    for (size_t w = 0; w < impl.inv_count.size(); ++w) impl.inv_count[w] = 1.0f / static_cast<float>(w + 1);
+  }
+  const float* inv_count = impl.inv_count.data();
   std::vector<int64_t> updated(num_threads, 0);
   internal::RunChunks(num_threads, [&](int chunk) {
     const size_t begin = visible.size() * chunk / num_threads;
@@ -219,7 +232,12 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
             if (!(u > -0.5f && u < u_limit && v > -0.5f && v < v_limit)) continue;
             float d = depth[static_cast<size_t>(v + 0.5f) * depth_step + static_cast<size_t>(u + 0.5f)];
             if (!(d >= min_depth_m && d <= max_depth_m)) continue;
-            if (u >= 0 && v >= 0 && u < u_inner && v < v_inner) {
+            // Bilinear depth can move d by at most the spread it accepts (below): beyond
+            // that margin around the band the voxel is free space (tsdf 1) or hidden
+            // either way, and most voxels of a block are one or the other.
+            const float margin_m = truncation_m + half_truncation_m + d * edge_slope_per_m;
+            if (d - p.z() < -margin_m) continue;
+            if (d - p.z() < margin_m && u >= 0 && v >= 0 && u < u_inner && v < v_inner) {
               // Bilinear depth where the four pixels around lie on one surface: the nearest
               // pixel's depth alone would be off by up to half a pixel times the depth slope
               // (a quarter voxel on a 45° wall). One surface: a spread below half a
@@ -243,19 +261,22 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
             if (sdf_m < -truncation_m) continue;  // hidden behind the surface: unknown
             const float tsdf = std::min(1.0f, sdf_m * inv_truncation);
             const float w = voxel->weight;
-            voxel->sdf = (voxel->sdf * w + tsdf) / (w + 1);
+            const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
+            const float inv = static_cast<float>(wi) == w ? inv_count[wi] : 1.0f / (w + 1);
+            voxel->sdf = (voxel->sdf * w + tsdf) * inv;
             voxel->weight = std::min(w + 1, max_weight);
             ++count;
             if (!with_colour || sdf_m >= truncation_m) continue;
             const Eigen::Vector3f q = colour_from_camera_rotation * p + colour_from_camera_translation;
             if (!(q.z() > 0)) continue;
-            int cx_pixel, cy_pixel;
-            if (!colour->camera.NearestPixel(colour->camera.Project(q), cx_pixel, cy_pixel)) continue;
-            const auto* rgb = colour->rgb.ptr<std::uint8_t>(cy_pixel) + 3 * cx_pixel;
+            const float inv_qz = 1.0f / q.z();
+            const float cu = colour_fx * q.x() * inv_qz + colour_cx, cv = colour_fy * q.y() * inv_qz + colour_cy;
+            if (!(cu > -0.5f && cu < colour_u_limit && cv > -0.5f && cv < colour_v_limit)) continue;
+            const auto* rgb = colour_rgb + static_cast<size_t>(cv + 0.5f) * colour_step + 3 * static_cast<size_t>(cu + 0.5f);
             const int cw = voxel->colour_weight;
-            const float inv = 1.0f / static_cast<float>(cw + 1);
+            const float inv_cw = inv_count[cw];  // cw <= min(max_weight, 255)
             for (int c = 0; c < 3; ++c) {
-              const float mean = (static_cast<float>(voxel->colour[c]) * static_cast<float>(cw) + rgb[c]) * inv;
+              const float mean = (static_cast<float>(voxel->colour[c]) * static_cast<float>(cw) + rgb[c]) * inv_cw;
               voxel->colour[c] = static_cast<std::uint8_t>(mean + 0.5f);
             }
             voxel->colour_weight = static_cast<std::uint8_t>(std::min(cw + 1, max_colour_weight));

@@ -69,13 +69,46 @@ std::optional<Rgb8> TsdfVolume::ColourAt(const Eigen::Vector3f& point_in_world) 
   return colour;
 }
 
+TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
+                                         std::array<const Voxel*, 8>& corners, Eigen::Vector3f& fraction) {
+  const Eigen::Vector3f g = point_in_world * inv_voxel_m_;
+  const int ix = FloorToInt(g.x()), iy = FloorToInt(g.y()), iz = FloorToInt(g.z());
+  fraction = g - Eigen::Vector3f(static_cast<float>(ix), static_cast<float>(iy), static_cast<float>(iz));
+  if (Block(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift) == nullptr) return Status::kNoBlock;
+  const int m = kBlockSide - 1;
+  for (int c = 0; c < 8; ++c) {
+    const int x = ix + (c & 1), y = iy + ((c >> 1) & 1), z = iz + (c >> 2);
+    const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
+    if (b == nullptr) return Status::kUnobserved;
+    corners[c] = &b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
+    if (!(corners[c]->weight > 0)) return Status::kUnobserved;
+  }
+  return Status::kOk;
+}
+
+TsdfSampler::Status TsdfSampler::SampleAcrossBlocks(int ix, int iy, int iz, float fx, float fy, float fz,
+                                                    float& sdf) {
+  const int m = kBlockSide - 1;
+  float s[8];
+  for (int c = 0; c < 8; ++c) {
+    const int x = ix + (c & 1), y = iy + ((c >> 1) & 1), z = iz + (c >> 2);
+    const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
+    if (b == nullptr) return Status::kUnobserved;
+    const Voxel& v = b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
+    if (!(v.weight > 0)) return Status::kUnobserved;
+    s[c] = v.sdf;
+  }
+  sdf = Trilinear(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], fx, fy, fz);
+  return Status::kOk;
+}
+
 bool TsdfSampler::Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f& normal) {
   const Eigen::Vector3f g = point_in_world * inv_voxel_m_;
-  const Eigen::Vector3f base = g.array().floor();
-  const Eigen::Vector3f f = g - base;
+  const Eigen::Vector3i base(FloorToInt(g.x()), FloorToInt(g.y()), FloorToInt(g.z()));
+  const Eigen::Vector3f f = g - base.cast<float>();
   // The 4×4×4 voxels from base − 1 to base + 2 hold every corner of the six samples
   // p ± one voxel along each axis; only the 32 of the three axis-aligned 4×2×2 bars are used.
-  const Eigen::Vector3i lo = base.cast<int>().array() - 1;
+  const Eigen::Vector3i lo = base.array() - 1;
   const int m = kBlockSide - 1;
   const Eigen::Vector3i k0(lo.x() >> kBlockShift, lo.y() >> kBlockShift, lo.z() >> kBlockShift);
   const Eigen::Vector3i l0(lo.x() & m, lo.y() & m, lo.z() & m);
@@ -83,25 +116,55 @@ bool TsdfSampler::Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f&
   const VoxelBlock* near[2][2][2] = {};
   for (int dz = 0; dz <= sz; ++dz) {
     for (int dy = 0; dy <= sy; ++dy) {
-      for (int dx = 0; dx <= sx; ++dx) near[dz][dy][dx] = volume_->FindBlock(k0 + Eigen::Vector3i(dx, dy, dz));
+      for (int dx = 0; dx <= sx; ++dx) near[dz][dy][dx] = Block(k0 + Eigen::Vector3i(dx, dy, dz));
     }
   }
   float s[4][4][4];  // [z][y][x], offsets −1 … 2 from base
-  auto fetch = [&](int x, int y, int z) {
-    const int ax = l0.x() + x, ay = l0.y() + y, az = l0.z() + z;
-    const VoxelBlock* b = near[az >> kBlockShift][ay >> kBlockShift][ax >> kBlockShift];
-    if (b == nullptr) return false;
-    const Voxel& v = b->voxels[(ax & m) + kBlockSide * ((ay & m) + kBlockSide * (az & m))];
-    s[z][y][x] = v.sdf;
-    return v.weight > 0;
-  };
-  for (int a = 0; a < 4; ++a) {
-    for (int b = 1; b <= 2; ++b) {
-      for (int c = 1; c <= 2; ++c) {
-        if (!fetch(a, b, c) || !fetch(b, a, c) || !fetch(b, c, a)) return false;
+  bool observed = true;
+  if ((sx | sy | sz) == 0) {  // all in one block: plain indexing
+    if (near[0][0][0] == nullptr) return false;
+    const Voxel* v0 = &near[0][0][0]->voxels[l0.x() + kBlockSide * (l0.y() + kBlockSide * l0.z())];
+    auto fetch = [&](int x, int y, int z) {
+      const Voxel& v = v0[x + kBlockSide * (y + kBlockSide * z)];
+      s[z][y][x] = v.sdf;
+      observed &= v.weight > 0;
+    };
+    for (int a = 0; a < 4; ++a) {
+      for (int b = 1; b <= 2; ++b) {
+        for (int c = 1; c <= 2; ++c) {
+          fetch(a, b, c);
+          fetch(b, a, c);
+          fetch(b, c, a);
+        }
+      }
+    }
+  } else {
+    // Per axis, which of the two blocks and which voxel in it each offset −1 … 2 falls in.
+    int bx[4], by[4], bz[4], ix[4], iy[4], iz[4];
+    for (int a = 0; a < 4; ++a) {
+      bx[a] = (l0.x() + a) >> kBlockShift;
+      by[a] = (l0.y() + a) >> kBlockShift;
+      bz[a] = (l0.z() + a) >> kBlockShift;
+      ix[a] = (l0.x() + a) & m;
+      iy[a] = kBlockSide * ((l0.y() + a) & m);
+      iz[a] = kBlockSide * kBlockSide * ((l0.z() + a) & m);
+    }
+    auto fetch = [&](int x, int y, int z) {
+      const VoxelBlock* b = near[bz[z]][by[y]][bx[x]];
+      if (b == nullptr) return false;
+      const Voxel& v = b->voxels[ix[x] + iy[y] + iz[z]];
+      s[z][y][x] = v.sdf;
+      return v.weight > 0;
+    };
+    for (int a = 0; a < 4; ++a) {
+      for (int b = 1; b <= 2; ++b) {
+        for (int c = 1; c <= 2; ++c) {
+          if (!fetch(a, b, c) || !fetch(b, a, c) || !fetch(b, c, a)) return false;
+        }
       }
     }
   }
+  if (!observed) return false;
   // Trilinear value at base + (ox, oy, oz) + f from the cell whose lowest corner is there.
   auto trilinear = [&](int ox, int oy, int oz) {
     const int x = ox + 1, y = oy + 1, z = oz + 1;
@@ -143,11 +206,10 @@ bool TsdfSampler::Colour(const Eigen::Vector3f& point_in_world, Rgb8& colour) {
 size_t TsdfVolume::NumBlocks() const { return impl_->blocks.size(); }
 
 size_t TsdfVolume::MemoryBytes() const {
-  // Blocks, the block pointer and stamp arrays and the hash map's nodes and buckets
-  // (libstdc++: a node holds the pair and a next pointer).
-  const size_t node = sizeof(std::pair<const uint64_t, int32_t>) + sizeof(void*);
+  // Blocks, the block pointer and stamp arrays, and the hash table's slots (key and index)
+  // and control bytes (one per slot).
   return impl_->blocks.size() * (sizeof(VoxelBlock) + sizeof(void*) + sizeof(uint32_t)) +
-         impl_->index.size() * node + impl_->index.bucket_count() * sizeof(void*);
+         impl_->index.capacity() * (sizeof(std::pair<uint64_t, int32_t>) + 1);
 }
 
 void TsdfVolume::ForEachBlock(const std::function<void(const VoxelBlock&)>& f) const {

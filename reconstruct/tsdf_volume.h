@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -40,6 +41,13 @@ struct TsdfOptions {
 
   std::string Check() const;  // "" when valid, else names the field, value and constraint
 };
+
+// floor(x) as an int for |x| < 2^31, without the libm call std::floor becomes on plain
+// x86-64 (no SSE4.1 rounding instruction): samplers call it millions of times per frame.
+inline int FloorToInt(float x) {
+  const int i = static_cast<int>(x);
+  return i - (static_cast<float>(i) > x);
+}
 
 // Blocks are kBlockSide voxels along each axis (8: the samplers divide by shifting).
 inline constexpr int kBlockSide = 8;
@@ -105,6 +113,12 @@ class TsdfVolume {
   // projective distance (weight +1, capped at max_weight); voxels more than truncation_m
   // behind the measured surface are left alone. When `colour` is given, voxels within the
   // band take the colour they project to (weighted running mean, same weights).
+  // Details (tsdf_integrate.cc): rays are walked for pixels sampled a quarter block apart
+  // at the frame's farthest depth (every pixel up to 8 apart); the blocks updated are the
+  // ones those rays touched this frame; depth is read bilinearly where the four pixels
+  // around a voxel's projection lie on one surface, else from the nearest pixel; colour
+  // from the nearest colour pixel. Asserts depth_m's type and size and rgb's (CV_8UC3,
+  // camera size). NaN depth counts as no measurement.
   IntegrateStats Integrate(const cv::Mat& depth_m, const PinholeCamera& camera,
                            const core::Rigid3d& world_from_camera,
                            const ColourView* colour = nullptr);
@@ -142,10 +156,11 @@ class TsdfVolume {
 };
 
 // Fast sampling of a volume for many nearby queries (a ray, a mesh, a thermal image): it
-// keeps the last block it looked up, so that a trilinear sample whose 8 voxels lie in one
-// block — 7 of 8 cells for 8³ blocks — costs no hash lookup when the previous query was in
-// the same block. Results equal TsdfVolume::SdfAt / NormalAt / ColourAt. Cheap to make
-// (one per thread and task); not thread-safe; invalid once the volume gains blocks.
+// keeps the last blocks it looked up (one per parity class of the key: any 2×2×2 group of
+// neighbours fits), so that nearby queries cost no hash lookup, and reads the 8 voxels of a
+// cell inside one block (7 cells of 8 per axis) by plain indexing. Results equal
+// TsdfVolume::SdfAt / NormalAt / ColourAt. Cheap to make (one per thread and task); not
+// thread-safe; invalid once the volume gains blocks.
 class TsdfSampler {
  public:
   explicit TsdfSampler(const TsdfVolume& volume)
@@ -160,7 +175,31 @@ class TsdfSampler {
                   // nothing to find before leaving that block (raycasting skips it whole)
   };
   // Trilinear sdf (units of truncation_m) at a world point (metres).
-  Status Sample(const Eigen::Vector3f& point_in_world, float& sdf);
+  Status Sample(const Eigen::Vector3f& point_in_world, float& sdf) {
+    const float gx = point_in_world.x() * inv_voxel_m_, gy = point_in_world.y() * inv_voxel_m_,
+                gz = point_in_world.z() * inv_voxel_m_;
+    const int ix = FloorToInt(gx), iy = FloorToInt(gy), iz = FloorToInt(gz);
+    const float fx = gx - static_cast<float>(ix), fy = gy - static_cast<float>(iy),
+                fz = gz - static_cast<float>(iz);
+    constexpr int m = kBlockSide - 1;
+    const int lx = ix & m, ly = iy & m, lz = iz & m;
+    const VoxelBlock* block = Block(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift);
+    if (block == nullptr) return Status::kNoBlock;
+    if ((lx < m) & (ly < m) & (lz < m)) {  // all 8 in this block: plain indexing
+      constexpr int kY = kBlockSide, kZ = kBlockSide * kBlockSide;
+      const Voxel* v = &block->voxels[lx + kY * ly + kZ * lz];
+      const Voxel &v000 = v[0], &v100 = v[1], &v010 = v[kY], &v110 = v[kY + 1], &v001 = v[kZ],
+                  &v101 = v[kZ + 1], &v011 = v[kZ + kY], &v111 = v[kZ + kY + 1];
+      if (!((v000.weight > 0) & (v100.weight > 0) & (v010.weight > 0) & (v110.weight > 0) &
+            (v001.weight > 0) & (v101.weight > 0) & (v011.weight > 0) & (v111.weight > 0))) {
+        return Status::kUnobserved;
+      }
+      sdf = Trilinear(v000.sdf, v100.sdf, v010.sdf, v110.sdf, v001.sdf, v101.sdf, v011.sdf,
+                      v111.sdf, fx, fy, fz);
+      return Status::kOk;
+    }
+    return SampleAcrossBlocks(ix, iy, iz, fx, fy, fz, sdf);
+  }
   bool Sdf(const Eigen::Vector3f& point_in_world, float& sdf) {
     return Sample(point_in_world, sdf) == Status::kOk;
   }
@@ -170,93 +209,50 @@ class TsdfSampler {
   bool Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f& normal);
   // TsdfVolume::ColourAt.
   bool Colour(const Eigen::Vector3f& point_in_world, Rgb8& colour);
-  // FindBlock through the one-block cache.
-  const VoxelBlock* Block(const BlockKey& key) {
-    if (key != cached_key_ || !cache_valid_) {
-      cached_key_ = key;
-      cached_block_ = volume_->FindBlock(key);
-      cache_valid_ = true;
+  // FindBlock through the cache.
+  const VoxelBlock* Block(int kx, int ky, int kz) {
+    Slot& slot = slots_[(kx & 1) | ((ky & 1) << 1) | ((kz & 1) << 2)];
+    if ((kx != slot.x) | (ky != slot.y) | (kz != slot.z)) {
+      slot.x = kx;
+      slot.y = ky;
+      slot.z = kz;
+      slot.block = volume_->FindBlock(BlockKey(kx, ky, kz));
     }
-    return cached_block_;
+    return slot.block;
   }
+  const VoxelBlock* Block(const BlockKey& key) { return Block(key.x(), key.y(), key.z()); }
   // The voxel with integer coordinates, or nullptr when its block is absent.
   const Voxel* FindVoxel(const Eigen::Vector3i& voxel) {
-    const VoxelBlock* block = Block(BlockKey(voxel.x() >> kBlockShift, voxel.y() >> kBlockShift,
-                                             voxel.z() >> kBlockShift));
+    const VoxelBlock* block = Block(voxel.x() >> kBlockShift, voxel.y() >> kBlockShift, voxel.z() >> kBlockShift);
     if (block == nullptr) return nullptr;
     const int m = kBlockSide - 1;
     return &block->voxels[(voxel.x() & m) + kBlockSide * ((voxel.y() & m) + kBlockSide * (voxel.z() & m))];
   }
 
+  static float Trilinear(float s000, float s100, float s010, float s110, float s001, float s101,
+                         float s011, float s111, float fx, float fy, float fz) {
+    const float x00 = s000 + fx * (s100 - s000), x10 = s010 + fx * (s110 - s010);
+    const float x01 = s001 + fx * (s101 - s001), x11 = s011 + fx * (s111 - s011);
+    const float y0 = x00 + fy * (x10 - x00), y1 = x01 + fy * (x11 - x01);
+    return y0 + fz * (y1 - y0);
+  }
+
  private:
-  // The 8 voxels around a point (x fastest) and the fractional position; false as Sample.
+  // Sample() for a cell whose voxels lie in several blocks.
+  Status SampleAcrossBlocks(int ix, int iy, int iz, float fx, float fy, float fz, float& sdf);
+  // The 8 voxels around a point (x fastest) and the fractional position; as Sample.
   Status Corners(const Eigen::Vector3f& point_in_world, std::array<const Voxel*, 8>& corners,
                  Eigen::Vector3f& fraction);
 
+  struct Slot {
+    // Starts at a key no block can have (FindBlock returns nullptr for it: consistent).
+    int x = std::numeric_limits<int>::min(), y = std::numeric_limits<int>::min(),
+        z = std::numeric_limits<int>::min();
+    const VoxelBlock* block = nullptr;
+  };
   const TsdfVolume* volume_;
   float inv_voxel_m_;
-  BlockKey cached_key_ = BlockKey::Zero();
-  const VoxelBlock* cached_block_ = nullptr;
-  bool cache_valid_ = false;
+  std::array<Slot, 8> slots_;
 };
-
-inline TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
-                                                std::array<const Voxel*, 8>& corners,
-                                                Eigen::Vector3f& fraction) {
-  const float gx = point_in_world.x() * inv_voxel_m_, gy = point_in_world.y() * inv_voxel_m_,
-              gz = point_in_world.z() * inv_voxel_m_;
-  const float fx = std::floor(gx), fy = std::floor(gy), fz = std::floor(gz);
-  fraction = {gx - fx, gy - fy, gz - fz};
-  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy), iz = static_cast<int>(fz);
-  const int m = kBlockSide - 1;
-  const int lx = ix & m, ly = iy & m, lz = iz & m;
-  const VoxelBlock* block = Block(BlockKey(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift));
-  if (block == nullptr) return Status::kNoBlock;
-  if (lx < m && ly < m && lz < m) {  // all 8 in this block: no further lookup
-    const Voxel* v = &block->voxels[lx + kBlockSide * (ly + kBlockSide * lz)];
-    constexpr int kY = kBlockSide, kZ = kBlockSide * kBlockSide;
-    corners = {v, v + 1, v + kY, v + kY + 1, v + kZ, v + kZ + 1, v + kZ + kY, v + kZ + kY + 1};
-  } else {
-    // Across a block face: the other blocks of the 2×2×2 around, looked up directly so
-    // that the cache keeps following the ray.
-    const int kx = ix >> kBlockShift, ky = iy >> kBlockShift, kz = iz >> kBlockShift;
-    const int sx = lx == m, sy = ly == m, sz = lz == m;
-    const VoxelBlock* near[2][2][2] = {};
-    for (int dz = 0; dz <= sz; ++dz) {
-      for (int dy = 0; dy <= sy; ++dy) {
-        for (int dx = 0; dx <= sx; ++dx) {
-          near[dz][dy][dx] = (dx | dy | dz) == 0
-                                 ? block
-                                 : volume_->FindBlock(BlockKey(kx + dx, ky + dy, kz + dz));
-        }
-      }
-    }
-    for (int c = 0; c < 8; ++c) {
-      const int x = lx + (c & 1), y = ly + ((c >> 1) & 1), z = lz + (c >> 2);
-      const VoxelBlock* b = near[z >> kBlockShift][y >> kBlockShift][x >> kBlockShift];
-      if (b == nullptr) return Status::kUnobserved;
-      corners[c] = &b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
-    }
-  }
-  for (int c = 0; c < 8; ++c) {
-    if (!(corners[c]->weight > 0)) return Status::kUnobserved;
-  }
-  return Status::kOk;
-}
-
-inline TsdfSampler::Status TsdfSampler::Sample(const Eigen::Vector3f& point_in_world, float& sdf) {
-  std::array<const Voxel*, 8> c;
-  Eigen::Vector3f f;
-  const Status status = Corners(point_in_world, c, f);
-  if (status != Status::kOk) return status;
-  const float x00 = c[0]->sdf + f.x() * (c[1]->sdf - c[0]->sdf);
-  const float x10 = c[2]->sdf + f.x() * (c[3]->sdf - c[2]->sdf);
-  const float x01 = c[4]->sdf + f.x() * (c[5]->sdf - c[4]->sdf);
-  const float x11 = c[6]->sdf + f.x() * (c[7]->sdf - c[6]->sdf);
-  const float y0 = x00 + f.y() * (x10 - x00);
-  const float y1 = x01 + f.y() * (x11 - x01);
-  sdf = y0 + f.z() * (y1 - y0);
-  return Status::kOk;
-}
 
 }  // namespace hw::reconstruct

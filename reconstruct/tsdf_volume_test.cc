@@ -324,6 +324,33 @@ TEST(TsdfIntegrate, UniformColour) {
   EXPECT_EQ(*at_surface, Rgb8(200, 100, 50));
 }
 
+// The colour camera 5 cm to the right of the depth camera (x): its image is red left of
+// column 79.5 and blue right of it, so on the plane z = 1 m the boundary lies at
+// x = 0.05 + (79.5 − cx) / fx = 0.05 m in the world. A transform taken the wrong way round
+// would put it at −0.05 m.
+TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.0);
+  ColourView colour;
+  colour.rgb = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(255, 0, 0));
+  colour.rgb.colRange(80, camera.width).setTo(cv::Scalar(0, 0, 255));
+  colour.camera = camera;
+  colour.world_from_camera = core::Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.05, 0, 0));
+  TsdfVolume volume(SmallOptions());
+  volume.Integrate(depth, camera, pose, &colour);
+  for (const float x : {-0.3f, 0.0f, 0.03f}) {
+    const auto c = volume.ColourAt(Eigen::Vector3f(x, 0.0f, 1.0f));
+    ASSERT_TRUE(c.has_value());
+    EXPECT_EQ(*c, Rgb8(255, 0, 0)) << x;
+  }
+  for (const float x : {0.07f, 0.3f}) {
+    const auto c = volume.ColourAt(Eigen::Vector3f(x, 0.0f, 1.0f));
+    ASSERT_TRUE(c.has_value());
+    EXPECT_EQ(*c, Rgb8(0, 0, 255)) << x;
+  }
+}
+
 TEST(TsdfIntegrate, NothingToFuse) {
   const PinholeCamera camera = SmallCamera();
   TsdfVolume volume(SmallOptions());

@@ -17,6 +17,8 @@ packages=(
   openimageio-tools python3-imath
   # capture
   libopenni2-dev libusb-1.0-0-dev
+  # reconstruct: the TSDF's block hash (absl::flat_hash_map)
+  libabsl-dev
   # report
   libcairo2-dev libpango1.0-dev
   # tests

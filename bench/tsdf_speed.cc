@@ -1,0 +1,193 @@
+// Per-frame time of TSDF integration and raycasting on a scan's first frames, fused at the
+// ground-truth poses (no tracking), as the reconstruction pipeline runs them: integrate the
+// depth frame (with its colour frame), then raycast the model from the same pose at full
+// resolution (the ICP reference) and at half resolution.
+//
+//   bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] [--no-colour]
+//                         [--repeat R]
+//
+// SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
+// fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
+// Prints one line per frame and the median and mean of each column.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/scan.h"
+#include "reconstruct/raycast.h"
+#include "reconstruct/tsdf_volume.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// CPU time of the whole process (all threads), ms: on a shared machine the wall time of a
+// call grows with the other jobs' load; CPU time / threads is what it costs on idle cores.
+double CpuMs() {
+  timespec t;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+void Summary(const char* name, std::vector<double> v) {
+  if (v.empty()) return;
+  double sum = 0;
+  for (const double x : v) sum += x;
+  std::sort(v.begin(), v.end());
+  std::printf("%-22s median %7.2f ms  mean %7.2f ms  max %7.2f ms\n", name, v[v.size() / 2],
+              sum / static_cast<double>(v.size()), v.back());
+}
+
+int Run(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr,
+                 "usage: bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] "
+                 "[--no-colour] [--repeat R]\n");
+    return 1;
+  }
+  const std::string folder = argv[1];
+  int frames = 60, threads = 2, repeat = 1;
+  bool colour = true;
+  hw::reconstruct::TsdfOptions options;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "bench_tsdf_speed: %s needs a value\n", a.c_str());
+        std::exit(1);
+      }
+      return argv[++i];
+    };
+    if (a == "--frames") frames = std::atoi(next());
+    else if (a == "--threads") threads = std::atoi(next());
+    else if (a == "--voxel") options.voxel_size_m = std::atof(next());
+    else if (a == "--truncation") options.truncation_m = std::atof(next());
+    else if (a == "--no-colour") colour = false;
+    else if (a == "--repeat") repeat = std::max(1, std::atoi(next()));
+    else {
+      std::fprintf(stderr, "bench_tsdf_speed: unknown option %s\n", a.c_str());
+      return 1;
+    }
+  }
+  options.num_threads = threads;
+  if (const std::string error = options.Check(); !error.empty()) {
+    std::fprintf(stderr, "bench_tsdf_speed: %s\n", error.c_str());
+    return 1;
+  }
+  const hw::core::Scan scan = hw::core::Scan::Open(folder);
+  if (!scan.groundtruth()) {
+    std::fprintf(stderr, "bench_tsdf_speed: %s has no groundtruth.txt\n", folder.c_str());
+    return 1;
+  }
+  const hw::core::Rig& rig = scan.rig();
+  const auto camera = hw::reconstruct::PinholeCamera::Of(rig.depth);
+  hw::reconstruct::RaycastOptions raycast;
+  raycast.min_depth_m = options.min_depth_m;
+  raycast.max_depth_m = options.max_depth_m;
+  raycast.num_threads = threads;
+  hw::reconstruct::TsdfVolume volume(options);
+  std::printf("%s: %dx%d, voxel %.4g m, truncation %.4g m, %d threads, colour %s\n", folder.c_str(),
+              camera.width, camera.height, options.voxel_size_m, options.truncation_m, threads,
+              colour && rig.rgb ? "yes" : "no");
+  std::printf("wall ms per call, and (cpu) process CPU ms per call summed over its threads\n");
+  std::printf("%5s %16s %16s %16s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
+              "ray 1/2 (cpu)", "blocks", "visible", "valid%", "MiB");
+  std::vector<double> integrate_ms, raycast_ms, half_ms, integrate_cpu, raycast_cpu, half_cpu;
+  const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
+  for (int i = 0; i < n; ++i) {
+    const double t = scan.DepthClockTime(hw::core::Stream::kDepth, i);
+    const auto pose = scan.groundtruth()->At(t);
+    if (!pose || !scan.FrameExists(hw::core::Stream::kDepth, i)) continue;
+    const cv::Mat depth = scan.LoadDepth(i);
+    hw::reconstruct::ColourView view;
+    bool have_colour = false;
+    if (colour && rig.rgb) {
+      if (const auto j = scan.AssociatedFrame(i, hw::core::Stream::kRgb); j && scan.FrameExists(hw::core::Stream::kRgb, *j)) {
+        const auto rgb_pose = scan.groundtruth()->At(scan.DepthClockTime(hw::core::Stream::kRgb, *j));
+        if (rgb_pose) {
+          view.rgb = scan.LoadRgb(*j);
+          view.camera = hw::reconstruct::PinholeCamera::Of(*rig.rgb);
+          view.world_from_camera = *rgb_pose * rig.depth_from_rgb;
+          have_colour = true;
+        }
+      }
+    }
+    const double c0 = CpuMs();
+    const auto t0 = Clock::now();
+    const auto stats = volume.Integrate(depth, camera, *pose, have_colour ? &view : nullptr);
+    const auto t1 = Clock::now();
+    const double integrate_end_cpu = CpuMs();
+    // With --repeat R, each raycast runs R times and the fastest counts: on a shared
+    // machine the others' load only ever adds time.
+    double c1 = CpuMs(), c2 = 0, c3 = 0;
+    auto t1b = t1, t2 = t1, t2b = t1, t3 = t1;
+    hw::reconstruct::PointMap map;
+    double best_ray = 1e300, best_half = 1e300;
+    for (int r = 0; r < repeat; ++r) {
+      const double ca = CpuMs();
+      const auto ta = Clock::now();
+      map = hw::reconstruct::Raycast(volume, camera, *pose, raycast);
+      const auto tb = Clock::now();
+      const double cb = CpuMs();
+      const auto half = hw::reconstruct::Raycast(volume, camera.Half(), *pose, raycast);
+      const auto tc = Clock::now();
+      const double cc = CpuMs();
+      if (Ms(ta, tb) < best_ray) {
+        best_ray = Ms(ta, tb);
+        t1b = ta;
+        t2 = tb;
+        c1 = ca;
+        c2 = cb;
+      }
+      if (Ms(tb, tc) < best_half) {
+        best_half = Ms(tb, tc);
+        t2b = tb;
+        t3 = tc;
+        c3 = cc - cb;
+      }
+    }
+    c3 += c2;
+    integrate_ms.push_back(Ms(t0, t1));
+    raycast_ms.push_back(Ms(t1b, t2));
+    half_ms.push_back(Ms(t2b, t3));
+    integrate_cpu.push_back(integrate_end_cpu - c0);
+    raycast_cpu.push_back(c2 - c1);
+    half_cpu.push_back(c3 - c2);
+    std::printf("%5d %7.2f (%6.2f) %7.2f (%6.2f) %7.2f (%6.2f) %8zu %8d %7.1f %7.1f\n", i, integrate_ms.back(),
+                integrate_cpu.back(), raycast_ms.back(), raycast_cpu.back(), half_ms.back(), half_cpu.back(),
+                volume.NumBlocks(), stats.blocks_visible,
+                100.0 * map.NumValid() / static_cast<double>(map.points.size()),
+                static_cast<double>(volume.MemoryBytes()) / (1 << 20));
+  }
+  // The first frames allocate most blocks: the steady state is what the pipeline sees.
+  Summary("integrate", integrate_ms);
+  Summary("raycast full", raycast_ms);
+  Summary("raycast half", half_ms);
+  Summary("integrate cpu", integrate_cpu);
+  Summary("raycast full cpu", raycast_cpu);
+  Summary("raycast half cpu", half_cpu);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_tsdf_speed: %s\n", e.what());
+    return 1;
+  }
+}
