@@ -68,7 +68,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_jump_m", r.icp.max_jump_m)
       .Number("max_jump_deg", r.icp.max_jump_deg)
       .Number("photometric_weight", r.icp.photometric_weight);
-  raycast.Number("step_fraction", r.raycast.step_fraction);
+  raycast.Number("step_fraction", r.raycast.step_fraction).Int("level", r.raycast_level);
   mesh.Number("min_weight", r.mesh.min_weight)
       .Int("min_component_triangles", r.mesh.min_component_triangles)
       .Number("min_component_area_fraction", r.mesh.min_component_area_fraction);
@@ -409,6 +409,9 @@ int RunReconstruct(int argc, char** argv) {
   app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
   app.add_option("--photometric-weight", r.icp.photometric_weight,
                  "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
+  app.add_option("--raycast-level", r.raycast_level,
+                 "track against the model raycast at this pyramid level (0 full, 1 half resolution)")
+      ->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();
   app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();

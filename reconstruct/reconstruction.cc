@@ -4,6 +4,7 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -26,6 +27,9 @@ ReconstructionOptions Effective(ReconstructionOptions o) {
   o.tsdf.max_depth_m = o.depth.max_depth_m = o.raycast.max_depth_m = o.max_depth_m;
   o.tsdf.num_threads = o.depth.num_threads = o.icp.num_threads = o.raycast.num_threads =
       o.mesh.num_threads = o.num_threads;
+  if (o.raycast_level >= 0 && o.raycast_level < static_cast<int>(o.icp.iterations.size())) {
+    for (int l = 0; l < o.raycast_level; ++l) o.icp.iterations[l] = 0;
+  }
   return o;
 }
 
@@ -81,7 +85,18 @@ std::string ReconstructionOptions::Check() const {
   if (!(relocalisation_widening >= 1) || !std::isfinite(relocalisation_widening)) {
     return Fail("relocalisation_widening", relocalisation_widening, ">= 1");
   }
+  if (!(max_residual_ratio > 1) || !std::isfinite(max_residual_ratio)) {
+    return Fail("max_residual_ratio", max_residual_ratio, "> 1 and finite");
+  }
   if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
+  if (raycast_level < 0 || raycast_level > 2 || raycast_level >= depth.num_levels) {
+    return Fail("raycast_level", raycast_level, "in [0, 2] and < depth.num_levels");
+  }
+  if (icp.iterations[raycast_level] == 0 &&
+      (raycast_level + 1 >= 3 || icp.iterations[raycast_level + 1] == 0) &&
+      (raycast_level + 2 >= 3 || icp.iterations[raycast_level + 2] == 0)) {
+    return Fail("icp.iterations", 0, "> 0 at raycast_level or a coarser level");
+  }
   const ReconstructionOptions e = Effective(*this);
   if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
   if (std::string m = e.depth.Check(); !m.empty()) return "depth." + m;
@@ -252,10 +267,21 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     icp.max_jump_deg = std::min(180.0, icp.max_jump_deg * w * frames_elapsed);
   }
 
+  // The residual gate relative to the frames tracked before.
+  double max_residual_m = std::numeric_limits<double>::infinity();
+  constexpr size_t kMinHistory = 5, kHistory = 30;
+  if (recent_residuals_m_.size() >= kMinHistory) {
+    std::vector<double> sorted = recent_residuals_m_;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    max_residual_m = options_.max_residual_ratio * sorted[sorted.size() / 2];
+  }
   IcpResult best;
   bool ok = false;
   for (const core::Rigid3d& initial : starts) {
-    const IcpResult result = AlignToModel(pyramid, *model_, initial, icp);
+    IcpResult result = AlignToModel(pyramid, *model_, initial, icp);
+    if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
+      result.status = IcpStatus::kLargeResidual;
+    }
     if (result.status == IcpStatus::kOk) {
       best = result;
       ok = true;
@@ -272,7 +298,11 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   const core::PoseError correction = core::ComparePoses(starts.front(), best.world_from_camera);
   record.correction_m = correction.translation_m;
   record.correction_deg = correction.rotation_rad * kRadToDeg;
-  if (ok) world_from_depth = best.world_from_camera;
+  if (ok) {
+    world_from_depth = best.world_from_camera;
+    recent_residuals_m_.push_back(best.residual_rms_m);
+    if (recent_residuals_m_.size() > kHistory) recent_residuals_m_.erase(recent_residuals_m_.begin());
+  }
   return ok;
 }
 
@@ -297,13 +327,22 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
 
 void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record) {
   const auto start = std::chrono::steady_clock::now();
-  const PinholeCamera& camera = depth_undistorter_.pinhole();
+  PinholeCamera camera = depth_undistorter_.pinhole();
+  for (int l = 0; l < options_.raycast_level; ++l) camera = camera.Half();
   RaycastOptions raycast = options_.raycast;
   // The photometric term compares the live colour with the model's.
   raycast.with_colour = options_.icp.photometric_weight > 0 && options_.integrate_colour && rig_.rgb;
-  PointMap level0 = Raycast(volume_, camera, world_from_depth, raycast);
-  model_ = BuildModelPyramid(std::move(level0), camera, world_from_depth,
-                             static_cast<int>(options_.icp.iterations.size()));
+  PointMap level = Raycast(volume_, camera, world_from_depth, raycast);
+  const int num_levels = static_cast<int>(options_.icp.iterations.size());
+  model_ = BuildModelPyramid(std::move(level), camera, world_from_depth,
+                             num_levels - options_.raycast_level);
+  // Finer levels than the raycast stay empty: ICP skips them (their iterations are 0).
+  for (int l = options_.raycast_level - 1; l >= 0; --l) {
+    PinholeCamera finer = depth_undistorter_.pinhole();
+    for (int k = 0; k < l; ++k) finer = finer.Half();
+    model_->cameras.insert(model_->cameras.begin(), finer);
+    model_->maps.insert(model_->maps.begin(), PointMap());
+  }
   record.raycast_ms = Ms(start);
 }
 

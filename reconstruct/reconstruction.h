@@ -45,6 +45,11 @@ struct ReconstructionOptions {
     return o;
   }();
   RaycastOptions raycast;
+  // Pyramid level the model is raycast at for tracking: 0 full resolution, 1 half, ... ICP
+  // then runs on that level and coarser ones only (icp.iterations of finer levels are
+  // ignored). A raycast costs per pixel: at 640×480, level 1 is 4× cheaper and tracks as
+  // well (bench/reconstruct_peers.sh). In [0, 2].
+  int raycast_level = 1;
   MeshOptions mesh;
   // Paint the model with the rgb stream (when the rig has one and frames are given).
   bool integrate_colour = true;
@@ -54,6 +59,11 @@ struct ReconstructionOptions {
   // After a tracking failure, frames are aligned from the last tracked pose with the
   // association gates and jump limits widened by this factor, until one succeeds. >= 1.
   double relocalisation_widening = 2.0;
+  // A frame whose ICP residual exceeds this multiple of the median residual of the last
+  // tracked frames (at least 5 of them; the last 30) counts as failed: a fixed threshold
+  // cannot tell misalignment from a noisier sensor or scene, a relative one can (fast motion
+  // blurs depth, and a wrong pose leaves a residual well above the frames before it). > 1.
+  double max_residual_ratio = 2.0;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
 
@@ -143,6 +153,7 @@ class Reconstruction {
   std::optional<core::Rigid3d> initial_pose_;
   std::optional<ModelPyramid> model_;  // raycast at the last fused pose
   bool lost_ = false;
+  std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
   double last_timestamp_s_ = -1e300;
 };
 
