@@ -63,9 +63,12 @@ struct ModelPyramid {
 };
 
 // Downsamples a raycast (level 0) into `num_levels` levels by taking one valid point per
-// 2×2 block (nearest to the block's mean depth) with its normal.
+// 2×2 block (nearest to the block's mean depth along the camera axis) with its normal and
+// colour. num_threads: row bands run at once (0: hardware concurrency). Pass level0 by
+// std::move to avoid copying it.
 ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
-                               const core::Rigid3d& world_from_camera, int num_levels);
+                               const core::Rigid3d& world_from_camera, int num_levels,
+                               int num_threads = 0);
 
 enum class IcpStatus {
   kOk,
