@@ -49,7 +49,9 @@ inline Float4 Load(const float* p) {
 inline void Store(float* p, Float4 v) { std::memcpy(p, &v, sizeof(v)); }
 inline Float4 Splat(float f) { return Float4{f, f, f, f}; }
 // `v` where mask is all ones, else +0.
-inline Float4 Masked(Float4 v, Int4 mask) { return reinterpret_cast<Float4>(reinterpret_cast<Int4>(v) & mask); }
+inline Float4 Masked(Float4 v, Int4 mask) {
+  return reinterpret_cast<Float4>(reinterpret_cast<Int4>(v) & mask);
+}
 // RangeWeight, with t² clamped to the cutoff so that masked-off lanes stay finite.
 inline Float4 RangeWeight4(Float4 t_sq) {
   const Float4 cutoff = Splat(kRangeCutoffSq);
@@ -119,11 +121,13 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
     float weight;
   };
   std::vector<Offset> half;
-  const double inv_two_sigma_sq = 1.0 / (2.0 * options.bilateral_sigma_px * options.bilateral_sigma_px);
+  const double inv_two_sigma_sq =
+      1.0 / (2.0 * options.bilateral_sigma_px * options.bilateral_sigma_px);
   for (int dy = 0; dy <= r; ++dy) {
     for (int dx = -r; dx <= r; ++dx) {
       if (dy == 0 && dx <= 0) continue;
-      half.push_back({dx, dy, static_cast<float>(std::exp(-(dx * dx + dy * dy) * inv_two_sigma_sq))});
+      half.push_back(
+          {dx, dy, static_cast<float>(std::exp(-(dx * dx + dy * dy) * inv_two_sigma_sq))});
     }
   }
   const float sigma_depth = static_cast<float>(options.bilateral_sigma_depth_m);
@@ -151,7 +155,8 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
           const Float4 ta = (za - z) * inv, tb = (zb - z) * inv;
           const Float4 ta_sq = ta * ta, tb_sq = tb * tb;
           // Both valid and on this side of any edge, or neither counts.
-          const Int4 pair = (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
+          const Int4 pair =
+              (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
           const Float4 wa = Masked(weight4 * RangeWeight4(ta_sq), pair);
           const Float4 wb = Masked(weight4 * RangeWeight4(tb_sq), pair);
           Store(sum_w.data() + x, Load(sum_w.data() + x) + wa + wb);
@@ -233,8 +238,9 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
       Eigen::Vector3f* points = map.points.data() + map.Index(0, y);
       for (int x = 0; x < w; ++x) {
         const float z = row[x];
-        points[x] = z > 0 ? Eigen::Vector3f((x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z)
-                          : invalid;
+        points[x] =
+            z > 0 ? Eigen::Vector3f((x - camera.cx) * inv_fx * z, (y - camera.cy) * inv_fy * z, z)
+                  : invalid;
       }
     }
   });
@@ -275,7 +281,8 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
         const float norm_sq = nx * nx + ny * ny + nz * nz;
         if (!(norm_sq > 0)) continue;
         // Towards the camera: n · p < 0.
-        const float scale = (nx * p[0] + ny * p[1] + nz * z > 0 ? -1.0f : 1.0f) / std::sqrt(norm_sq);
+        const float scale =
+            (nx * p[0] + ny * p[1] + nz * z > 0 ? -1.0f : 1.0f) / std::sqrt(norm_sq);
         normals[3 * x] = nx * scale;
         normals[3 * x + 1] = ny * scale;
         normals[3 * x + 2] = nz * scale;
@@ -391,9 +398,8 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
                                      static_cast<float>(options.max_depth_m));
   // A fraction of 1 keeps all (the header's contract), though |dz| > z is possible.
   if (options.edge_jump_fraction < 1) {
-    pyramid.raw_depth_m = EdgeCleaned(pyramid.raw_depth_m,
-                                      static_cast<float>(options.edge_jump_fraction),
-                                      options.num_threads);
+    pyramid.raw_depth_m = EdgeCleaned(
+        pyramid.raw_depth_m, static_cast<float>(options.edge_jump_fraction), options.num_threads);
   }
   const float normal_jump = static_cast<float>(options.normal_max_jump_fraction);
   pyramid.levels.reserve(options.num_levels);

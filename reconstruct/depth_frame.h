@@ -44,6 +44,7 @@ struct DepthFilterOptions {
   // with symmetric support: a neighbour counts only with its mirror image through the centre
   // (valid and within 3 range sigmas), so a window cut by the image border, a hole or an edge
   // does not shift a slanted surface's depth (first-order bias, mm per pixel of gradient).
+  // Range weight (1 − t²/32)^16 ≈ exp(−t²/2) of t = Δz / range sigma, 0 beyond 3 sigma.
   int bilateral_radius_px = 2;         // window half-size, px, in [0, 10] (0: no filter)
   double bilateral_sigma_px = 1.5;     // spatial sigma, px, > 0
   double bilateral_sigma_depth_m = 0.03;  // range sigma at 1 m, m, > 0; grows as z² (the

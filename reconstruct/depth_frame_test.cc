@@ -1,5 +1,6 @@
 #include "reconstruct/depth_frame.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -14,7 +15,9 @@ namespace {
 
 using ::testing::HasSubstr;
 
-PinholeCamera SmallCamera() { return PinholeCamera::Of(core::CameraModel::Pinhole(160, 120, 140, 140)); }
+PinholeCamera SmallCamera() {
+  return PinholeCamera::Of(core::CameraModel::Pinhole(160, 120, 140, 140));
+}
 
 // Depth of the plane {p : a · p = 1} (camera frame) at each pixel: the ray (x̄, ȳ, 1) meets
 // it at z = 1 / (a · ray).
@@ -150,7 +153,8 @@ TEST(Undistorter, ColourIsResampledBilinearlyThroughTheLens) {
       for (int u = 0; u < camera.width; ++u) rgb.at<cv::Vec3b>(v, u) = cv::Vec3b(u, v, 200);
     }
     const cv::Mat out = undistorter.UndistortColour(rgb);
-    const cv::Mat depth = undistorter.UndistortDepth(cv::Mat(rgb.size(), CV_32FC1, cv::Scalar(1.5f)));
+    const cv::Mat depth =
+        undistorter.UndistortDepth(cv::Mat(rgb.size(), CV_32FC1, cv::Scalar(1.5f)));
     ASSERT_EQ(out.type(), CV_8UC3);
     int checked = 0, black = 0;
     for (int v = 0; v < out.rows; ++v) {
@@ -184,8 +188,8 @@ TEST(BuildDepthPyramid, RangeLimitsAndFlyingPixels) {
   const PinholeCamera camera = SmallCamera();
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
   depth.colRange(80, 160).setTo(1.3f);  // a step: both sides' edge pixels jump 30 %
-  depth.at<float>(10, 10) = 0.1f;        // too near
-  depth.at<float>(20, 20) = 5.0f;        // too far
+  depth.at<float>(10, 10) = 0.1f;       // too near
+  depth.at<float>(20, 20) = 5.0f;       // too far
   depth.at<float>(30, 30) = NAN;
   const DepthPyramid pyramid = BuildDepthPyramid(depth, camera, DepthFilterOptions());
   const cv::Mat& raw = pyramid.raw_depth_m;
@@ -212,7 +216,8 @@ TEST(BuildDepthPyramid, BilateralKeepsAStepEdgeSharp) {
   std::mt19937 rng(7);
   std::normal_distribution<float> noise(0.0f, 0.002f);
   for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) depth.at<float>(v, u) = (u < 80 ? 1.0f : 1.3f) + noise(rng);
+    for (int u = 0; u < camera.width; ++u)
+      depth.at<float>(v, u) = (u < 80 ? 1.0f : 1.3f) + noise(rng);
   }
   DepthFilterOptions options;
   options.edge_jump_fraction = 1;  // keep the edge pixels
@@ -297,8 +302,8 @@ TEST(BuildDepthPyramid, PlanePointsAndNormalsAreExactAtEveryLevel) {
     Eigen::Vector3f a;
     double point_tolerance_m, normal_tolerance_rad;
   };
-  for (const Case& c : {Case{{0, 0, 0.5f}, 2e-6, 1e-5},
-                        Case{{0.12f, -0.09f, 0.55f}, 5e-5, 0.1 * M_PI / 180}}) {
+  for (const Case& c :
+       {Case{{0, 0, 0.5f}, 2e-6, 1e-5}, Case{{0.12f, -0.09f, 0.55f}, 5e-5, 0.1 * M_PI / 180}}) {
     const cv::Mat depth = PlaneDepth(camera, c.a);
     const DepthPyramid pyramid = BuildDepthPyramid(depth, camera, DepthFilterOptions());
     const Eigen::Vector3f unit = c.a.normalized();
@@ -336,7 +341,8 @@ TEST(BuildDepthPyramid, NormalsAtHolesAndStepsAreOneSided) {
   options.bilateral_radius_px = 0;
   const DepthPyramid pyramid = BuildDepthPyramid(depth, camera, options);
   const PointMap& map = pyramid.levels[0].map;
-  for (const auto& [x, y] : {std::pair{39, 60}, {41, 60}, {40, 59}, {40, 61}, {99, 30}, {100, 30}}) {
+  for (const auto& [x, y] :
+       {std::pair{39, 60}, {41, 60}, {40, 59}, {40, 61}, {99, 30}, {100, 30}}) {
     const Eigen::Vector3f n = map.normals[map.Index(x, y)];
     ASSERT_TRUE(IsValid(n)) << x << " " << y;
     EXPECT_NEAR(n.z(), -1.0f, 1e-6) << x << " " << y;

@@ -10,7 +10,6 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 #include "reconstruct/row_bands.h"
@@ -162,8 +161,14 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
       const float r = nm[0] * dx + nm[1] * dy + nm[2] * dz;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
       // dr/dω = p × n_c, dr/dv = n_c.
-      const float x_aug[8] = {p[1] * ncz - p[2] * ncy, p[2] * ncx - p[0] * ncz,
-                              p[0] * ncy - p[1] * ncx, ncx, ncy, ncz, r, 0.0f};
+      const float x_aug[8] = {p[1] * ncz - p[2] * ncy,
+                              p[2] * ncx - p[0] * ncz,
+                              p[0] * ncy - p[1] * ncx,
+                              ncx,
+                              ncy,
+                              ncz,
+                              r,
+                              0.0f};
       AddTerm(acc, x_aug, HuberWeight(r, pass.huber));
       sum_r_sq += r * r;
       ++inliers;
@@ -178,7 +183,8 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
         const float live_i = pass.live_intensity[row + x];
         if (std::isnan(i00 + i10 + i01 + i11 + live_i)) continue;
         const float fu = u - u0, fv = v - v0;
-        const float model_i = (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
+        const float model_i =
+            (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
         // Gradient of the bilinear patch (per pixel), then d(grey)/d(p_model) through the
         // projection, then into the live camera frame (g_c = (M R)ᵀ g_m): the Jacobian has
         // the geometric one's form with g_c in place of n_c.
@@ -192,8 +198,14 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
         const float gcy = MR[1] * gmx + MR[4] * gmy + MR[7] * gmz;
         const float gcz = MR[2] * gmx + MR[5] * gmy + MR[8] * gmz;
         const float ri = lambda * (model_i - live_i);
-        const float xi_aug[8] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
-                                 p[0] * gcy - p[1] * gcx, gcx, gcy, gcz, ri, 0.0f};
+        const float xi_aug[8] = {p[1] * gcz - p[2] * gcy,
+                                 p[2] * gcx - p[0] * gcz,
+                                 p[0] * gcy - p[1] * gcx,
+                                 gcx,
+                                 gcy,
+                                 gcz,
+                                 ri,
+                                 0.0f};
         AddTerm(acc, xi_aug, HuberWeight(ri, pass.huber));
       }
     }
@@ -215,8 +227,8 @@ Sums Accumulate(const Pass& pass, int num_threads) {
   std::vector<Sums> partial(chunks);
   ForEachBand(chunks, num_threads, [&](int c0, int c1) {
     for (int c = c0; c < c1; ++c) {
-      partial[c] = AccumulateRows(pass, c * kChunkRows,
-                                  std::min(pass.live->height, (c + 1) * kChunkRows));
+      partial[c] =
+          AccumulateRows(pass, c * kChunkRows, std::min(pass.live->height, (c + 1) * kChunkRows));
     }
   });
   Sums total;
@@ -285,8 +297,7 @@ std::string IcpOptions::Check() const {
   bool any = false;
   for (size_t l = 0; l < iterations.size(); ++l) {
     if (iterations[l] < 0 || iterations[l] > 100) {
-      return Fail(("iterations[" + std::to_string(l) + "]").c_str(), iterations[l],
-                  "in [0, 100]");
+      return Fail(("iterations[" + std::to_string(l) + "]").c_str(), iterations[l], "in [0, 100]");
     }
     any = any || iterations[l] > 0;
   }
@@ -300,7 +311,8 @@ std::string IcpOptions::Check() const {
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg <= 90)) {
     return Fail("max_normal_angle_deg", max_normal_angle_deg, "in (0, 90] degrees");
   }
-  if (!(huber_m > 0) || !std::isfinite(huber_m)) return Fail("huber_m", huber_m, "> 0 m and finite");
+  if (!(huber_m > 0) || !std::isfinite(huber_m))
+    return Fail("huber_m", huber_m, "> 0 m and finite");
   if (!(min_update_rad >= 0) || !std::isfinite(min_update_rad)) {
     return Fail("min_update_rad", min_update_rad, ">= 0 rad and finite");
   }
@@ -340,7 +352,8 @@ std::string IcpStatusName(IcpStatus status) {
 }
 
 ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
-                               const core::Rigid3d& world_from_camera, int num_levels) {
+                               const core::Rigid3d& world_from_camera, int num_levels,
+                               int num_threads) {
   assert(num_levels >= 1);
   assert(level0.width == camera.width && level0.height == camera.height);
   ModelPyramid pyramid;
@@ -358,35 +371,39 @@ ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
     PointMap map(half.width, half.height);
     const bool colours = !above.colours.empty();
     if (colours) map.colours.assign(size_t(half.width) * half.height, Rgb8::Zero());
-    for (int y = 0; y < half.height; ++y) {
-      for (int x = 0; x < half.width; ++x) {
-        const size_t block[4] = {above.Index(2 * x, 2 * y), above.Index(2 * x + 1, 2 * y),
-                                 above.Index(2 * x, 2 * y + 1), above.Index(2 * x + 1, 2 * y + 1)};
-        float depth[4];
-        float sum = 0;
-        int n = 0;
-        for (int k = 0; k < 4; ++k) {
-          const Eigen::Vector3f& p = above.points[block[k]];
-          depth[k] = IsValid(p) ? axis.dot(p - origin) : -1.0f;
-          if (depth[k] >= 0) {
-            sum += depth[k];
-            ++n;
+    ForEachBand(half.height, num_threads, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        for (int x = 0; x < half.width; ++x) {
+          const size_t block[4] = {above.Index(2 * x, 2 * y), above.Index(2 * x + 1, 2 * y),
+                                   above.Index(2 * x, 2 * y + 1),
+                                   above.Index(2 * x + 1, 2 * y + 1)};
+          float depth[4];
+          float sum = 0;
+          int n = 0;
+          for (int k = 0; k < 4; ++k) {
+            const Eigen::Vector3f& p = above.points[block[k]];
+            depth[k] = IsValid(p) ? axis.dot(p - origin) : -1.0f;
+            if (depth[k] >= 0) {
+              sum += depth[k];
+              ++n;
+            }
           }
-        }
-        if (n == 0) continue;
-        const float mean = sum / static_cast<float>(n);
-        int best = -1;
-        for (int k = 0; k < 4; ++k) {
-          if (depth[k] >= 0 && (best < 0 || std::abs(depth[k] - mean) < std::abs(depth[best] - mean))) {
-            best = k;
+          if (n == 0) continue;
+          const float mean = sum / static_cast<float>(n);
+          int best = -1;
+          for (int k = 0; k < 4; ++k) {
+            if (depth[k] >= 0 &&
+                (best < 0 || std::abs(depth[k] - mean) < std::abs(depth[best] - mean))) {
+              best = k;
+            }
           }
+          const size_t i = map.Index(x, y);
+          map.points[i] = above.points[block[best]];
+          map.normals[i] = above.normals[block[best]];
+          if (colours) map.colours[i] = above.colours[block[best]];
         }
-        const size_t i = map.Index(x, y);
-        map.points[i] = above.points[block[best]];
-        map.normals[i] = above.normals[block[best]];
-        if (colours) map.colours[i] = above.colours[block[best]];
       }
-    }
+    });
     pyramid.cameras.push_back(half);
     pyramid.maps.push_back(std::move(map));
   }
@@ -422,7 +439,8 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
     const PointMap& live_map = live.levels[l].map;
     const PointMap& model_map = model.maps[l];
     assert(live_map.width == model_map.width && live_map.height == model_map.height);
-    assert(model.cameras[l].width == model_map.width && model.cameras[l].height == model_map.height);
+    assert(model.cameras[l].width == model_map.width &&
+           model.cameras[l].height == model_map.height);
     const double gate =
         std::max(options.min_distance_m, options.max_distance_m / double(1 << (coarsest - l)));
     Pass pass;
@@ -451,11 +469,12 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
       last_A = NormalMatrix(last);
       ++result.iterations;
       if (last.inliers < 6) break;  // fewer equations than unknowns
-      const Vector6d xi = Step(last_A, Eigen::Map<const Vector6d>(last.atb.data()),
-                               options.max_condition);
+      const Vector6d xi =
+          Step(last_A, Eigen::Map<const Vector6d>(last.atb.data()), options.max_condition);
       if (!xi.allFinite()) break;
       estimate = estimate * core::Rigid3d::Exp(xi);
-      if (xi.head<3>().norm() < options.min_update_rad && xi.tail<3>().norm() < options.min_update_m) {
+      if (xi.head<3>().norm() < options.min_update_rad &&
+          xi.tail<3>().norm() < options.min_update_m) {
         break;
       }
     }

@@ -47,6 +47,9 @@ struct IcpOptions {
   // (DepthLevel::intensity), times this weight: a black/white difference counts as this many
   // metres of point-to-plane error (same Huber threshold). Used only when both sides have
   // colour. m per grey level, in [0, 1]; 0.1 balances 2 mm depth noise with 0.02 grey noise.
+  // On the near-planar synthetic `equipment-small` scan (noisy, 320×240, frame to frame
+  // against the previous frame at its true pose) 0.2–0.5 cut the per-frame error from
+  // 5.9 mm to 1.0 mm RMS; geometry alone drifts along the wall there.
   double photometric_weight = 0;
   int num_threads = 0;  // 0: hardware concurrency
 
@@ -63,9 +66,12 @@ struct ModelPyramid {
 };
 
 // Downsamples a raycast (level 0) into `num_levels` levels by taking one valid point per
-// 2×2 block (nearest to the block's mean depth) with its normal.
+// 2×2 block (nearest to the block's mean depth along the camera axis) with its normal and
+// colour. num_threads: row bands run at once (0: hardware concurrency). Pass level0 by
+// std::move to avoid copying it.
 ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
-                               const core::Rigid3d& world_from_camera, int num_levels);
+                               const core::Rigid3d& world_from_camera, int num_levels,
+                               int num_threads = 0);
 
 enum class IcpStatus {
   kOk,

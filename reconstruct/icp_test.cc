@@ -17,7 +17,9 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kDeg = M_PI / 180.0;
 
-PinholeCamera SmallCamera() { return PinholeCamera::Of(core::CameraModel::Pinhole(160, 120, 140, 140)); }
+PinholeCamera SmallCamera() {
+  return PinholeCamera::Of(core::CameraModel::Pinhole(160, 120, 140, 140));
+}
 
 // A scene of planes {p : n · p = d} (world frame, n unit, facing the camera) seen from inside:
 // each ray takes the nearest plane in front of it. Three orthogonal walls x = 0, y = 0, z = 0
@@ -27,7 +29,10 @@ struct Scene {
   std::vector<Eigen::Vector3d> normals;
   std::vector<double> offsets;
 
-  static Scene Corner() { return {{Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()}, {0, 0, 0}}; }
+  static Scene Corner() {
+    return {{Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()},
+            {0, 0, 0}};
+  }
   static Scene Wall() { return {{Eigen::Vector3d::UnitZ()}, {0}}; }
 
   // Distance along the ray (origin + t dir) to the nearest plane it meets from the front, and
@@ -135,7 +140,8 @@ TEST(IcpOptions, CheckNamesTheField) {
   EXPECT_THAT(with([](auto& o) { o.iterations = {0, 0, 0}; }), HasSubstr("iterations"));
   EXPECT_THAT(with([](auto& o) { o.max_distance_m = 0; }), HasSubstr("max_distance_m"));
   EXPECT_THAT(with([](auto& o) { o.min_distance_m = 0.1; }), HasSubstr("min_distance_m"));
-  EXPECT_THAT(with([](auto& o) { o.max_normal_angle_deg = 91; }), HasSubstr("max_normal_angle_deg"));
+  EXPECT_THAT(with([](auto& o) { o.max_normal_angle_deg = 91; }),
+              HasSubstr("max_normal_angle_deg"));
   EXPECT_THAT(with([](auto& o) { o.huber_m = NAN; }), HasSubstr("huber_m"));
   EXPECT_THAT(with([](auto& o) { o.min_update_rad = -1; }), HasSubstr("min_update_rad"));
   EXPECT_THAT(with([](auto& o) { o.min_update_m = -1; }), HasSubstr("min_update_m"));
@@ -278,7 +284,8 @@ TEST(AlignToModel, AFlatWallIsIllConditioned) {
   // ...and the free directions are left at the prediction instead of sliding with noise
   // (the true motion is 1.7 cm; measured 1.1 cm from the prediction, the constrained part).
   const DepthPyramid noisy = LiveOf(scene, truth, 0.004, 3);
-  const IcpResult noisy_result = AlignToModel(noisy, ModelOf(scene, reference), reference, IcpOptions());
+  const IcpResult noisy_result =
+      AlignToModel(noisy, ModelOf(scene, reference), reference, IcpOptions());
   EXPECT_EQ(noisy_result.status, IcpStatus::kIllConditioned);
   EXPECT_LT(core::ComparePoses(noisy_result.world_from_camera, reference).translation_m, 0.03);
 }
@@ -289,14 +296,16 @@ TEST(AlignToModel, AJumpBeyondTheLimitIsImplausible) {
   const core::Rigid3d truth = reference * Motion();
   IcpOptions options;
   options.max_jump_m = 0.02;  // the true motion is 4.1 cm
-  const IcpResult result = AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options);
+  const IcpResult result =
+      AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options);
   EXPECT_EQ(result.status, IcpStatus::kImplausibleJump) << IcpStatusName(result.status);
   // Still the (good) estimate: the check judges it, it does not discard it.
   EXPECT_LT(core::ComparePoses(result.world_from_camera, truth).translation_m, 0.0005);
   options = IcpOptions();
   options.max_jump_deg = 2;  // the true rotation is 3°
-  EXPECT_EQ(AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options).status,
-            IcpStatus::kImplausibleJump);
+  EXPECT_EQ(
+      AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options).status,
+      IcpStatus::kImplausibleJump);
 }
 
 // A model of random points and normals: nothing passes the gates.
@@ -352,7 +361,8 @@ cv::Mat WallRgb(const PinholeCamera& camera, const core::Rigid3d& world_from_cam
   const Eigen::Matrix3d R = world_from_camera.rotation.toRotationMatrix();
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
-      const Eigen::Vector3d dir = R * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1);
+      const Eigen::Vector3d dir =
+          R * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1);
       double t;
       int plane;
       if (!Scene::Wall().Hit(world_from_camera.translation, dir, t, plane)) continue;
@@ -382,7 +392,8 @@ TEST(AlignToModel, ThePhotometricTermPinsATexturedWall) {
   PointMap level0 = scene.Map(camera, reference);
   level0.colours.assign(level0.points.size(), Rgb8::Zero());
   for (size_t i = 0; i < level0.points.size(); ++i) {
-    if (IsValid(level0.points[i])) level0.colours[i].setConstant(WallGrey(level0.points[i].cast<double>()));
+    if (IsValid(level0.points[i]))
+      level0.colours[i].setConstant(WallGrey(level0.points[i].cast<double>()));
   }
   const ModelPyramid model = BuildModelPyramid(level0, camera, reference, 3);
 
@@ -398,7 +409,8 @@ TEST(AlignToModel, ThePhotometricTermPinsATexturedWall) {
   EXPECT_LT(error.translation_m, 0.001);
   EXPECT_LT(error.rotation_rad, 0.1 * kDeg);
   // Without a live colour image the term has nothing to compare: geometry alone again.
-  const DepthPyramid grey_less = BuildDepthPyramid(scene.Depth(camera, truth), camera, DepthFilterOptions());
+  const DepthPyramid grey_less =
+      BuildDepthPyramid(scene.Depth(camera, truth), camera, DepthFilterOptions());
   EXPECT_EQ(AlignToModel(grey_less, model, reference, options).status, IcpStatus::kIllConditioned);
 }
 

@@ -6,6 +6,7 @@
 // cores, where spinning waits and fine-grained tasks cost more than they save.
 
 #include <algorithm>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -18,8 +19,8 @@ inline int ResolveThreads(int requested) {
 }
 
 // Calls band(begin, end) on disjoint ranges covering [0, num_items), at most `num_threads`
-// of them at once (0: hardware concurrency). Returns when all have finished. `band` must not
-// throw.
+// of them at once (0: hardware concurrency). Returns when all have finished; a band whose
+// thread cannot be started runs on the calling thread. `band` must not throw.
 template <typename Band>
 void ForEachBand(int num_items, int num_threads, const Band& band) {
   const int bands = std::min(ResolveThreads(num_threads), num_items);
@@ -31,7 +32,11 @@ void ForEachBand(int num_items, int num_threads, const Band& band) {
   workers.reserve(bands - 1);
   auto begin_of = [&](int i) { return static_cast<int>(static_cast<long>(num_items) * i / bands); };
   for (int i = 0; i + 1 < bands; ++i) {
-    workers.emplace_back([&band, b = begin_of(i), e = begin_of(i + 1)] { band(b, e); });
+    try {
+      workers.emplace_back([&band, b = begin_of(i), e = begin_of(i + 1)] { band(b, e); });
+    } catch (const std::system_error&) {
+      band(begin_of(i), begin_of(i + 1));  // no thread to be had: do it here
+    }
   }
   band(begin_of(bands - 1), num_items);
   for (auto& worker : workers) worker.join();
