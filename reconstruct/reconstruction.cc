@@ -337,11 +337,20 @@ void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRec
   model_ = BuildModelPyramid(std::move(level), camera, world_from_depth,
                              num_levels - options_.raycast_level);
   // Finer levels than the raycast stay empty: ICP skips them (their iterations are 0).
-  for (int l = options_.raycast_level - 1; l >= 0; --l) {
+  if (options_.raycast_level > 0) {
+    ModelPyramid padded;
+    padded.world_from_camera = model_->world_from_camera;
     PinholeCamera finer = depth_undistorter_.pinhole();
-    for (int k = 0; k < l; ++k) finer = finer.Half();
-    model_->cameras.insert(model_->cameras.begin(), finer);
-    model_->maps.insert(model_->maps.begin(), PointMap());
+    for (int l = 0; l < options_.raycast_level; ++l) {
+      padded.cameras.push_back(finer);
+      padded.maps.emplace_back();
+      finer = finer.Half();
+    }
+    for (size_t l = 0; l < model_->maps.size(); ++l) {
+      padded.cameras.push_back(model_->cameras[l]);
+      padded.maps.push_back(std::move(model_->maps[l]));
+    }
+    model_ = std::move(padded);
   }
   record.raycast_ms = Ms(start);
 }
