@@ -16,7 +16,8 @@
 # evaluates each trajectory against the scan's groundtruth.txt with `heatwave eval-trajectory
 # --json` (ATE RMSE after SE(3) alignment), measures wall time and peak memory (/usr/bin/time
 # -v when present, else each program's own figure), and prints a table: method, frames/s,
-# ATE RMSE mm, peak MB, and heatwave / peer ratios of frames/s and ATE. The same figures go to
+# ATE RMSE mm, peak MB, wall and CPU seconds of the whole run (CPU time tells how loaded a
+# shared machine was), and heatwave / peer ratios of frames/s and ATE. The same figures go to
 # OUT_DIR/summary.json. frames/s is frames over processing time, decoding excluded, as each
 # program reports it (heatwave: reconstruct.json; falls back to frames over wall time).
 # A peer whose program was not built (Open3D missing: bench/install-peers.sh) is skipped.
@@ -88,25 +89,28 @@ render() {
   echo "$scan"
 }
 
-# Runs a command under GNU time when present; leaves wall seconds and peak MB (or "") in
-# $run_dir/time.txt as "wall_s peak_mb".
+# Runs a command under GNU time when present and returns its exit status; leaves
+# "wall_s [peak_mb cpu_s]" in $run_dir/time.txt (the last two only with GNU time).
 timed() {
   local run_dir=$1; shift
-  local start end
+  local start end rc=0
   start=$(date +%s.%N)
   if [ -n "$gnu_time" ]; then
-    "$gnu_time" -v -o "$run_dir/gnu-time.txt" "$@"
+    "$gnu_time" -v -o "$run_dir/gnu-time.txt" "$@" || rc=$?
   else
-    "$@"
+    "$@" || rc=$?
   fi
   end=$(date +%s.%N)
-  local peak=""
+  local peak="" cpu=""
   if [ -n "$gnu_time" ]; then
     peak=$(awk -F': ' '/Maximum resident set size/ { printf "%.1f", $2 / 1024 }' \
            "$run_dir/gnu-time.txt")
+    cpu=$(awk -F': ' '/User time|System time/ { s += $2 } END { printf "%.2f", s }' \
+          "$run_dir/gnu-time.txt")
   fi
-  awk -v s="$start" -v e="$end" -v p="$peak" 'BEGIN { printf "%.3f %s\n", e - s, p }' \
-      > "$run_dir/time.txt"
+  awk -v s="$start" -v e="$end" -v p="$peak" -v c="$cpu" \
+      'BEGIN { printf "%.3f %s %s\n", e - s, p, c }' > "$run_dir/time.txt"
+  return "$rc"
 }
 
 # Collects one method's figures into a JSON row (python3: JSON in, JSON out).
@@ -117,7 +121,7 @@ import json, os, sys
 scene, method, run_dir, scan, status, voxel = sys.argv[1:7]
 row = {"scene": scene, "method": method, "scan": scan, "voxel_size_m": float(voxel),
        "status": status, "fps": None, "fps_source": None, "ate_rmse_mm": None,
-       "peak_mb": None, "wall_s": None, "frames": None, "output": run_dir}
+       "peak_mb": None, "wall_s": None, "cpu_s": None, "frames": None, "output": run_dir}
 
 def load(path):
     try:
@@ -140,10 +144,10 @@ if status != "ok":  # a failed or skipped run has no figures
     sys.exit(0)
 
 try:
-    wall, *peak = open(os.path.join(run_dir, "time.txt")).read().split()
+    wall, *rest = open(os.path.join(run_dir, "time.txt")).read().split()
     row["wall_s"] = float(wall)
-    if peak:
-        row["peak_mb"] = float(peak[0])
+    if len(rest) == 2:  # GNU time: peak resident MB, user + system CPU seconds
+        row["peak_mb"], row["cpu_s"] = float(rest[0]), float(rest[1])
 except OSError:
     pass
 
@@ -154,7 +158,7 @@ if method == "heatwave":
               [v for p, v in find(info, ["frames_per_s"])]
         if fps:
             row["fps"], row["fps_source"] = fps[0], "reconstruct.json"
-        frames = [v for p, v in find(info, ["frames"]) if p.endswith("frames")]
+        frames = [v for p, v in find(info, ["frames"]) if p.endswith("/frames")]
         if frames:
             row["frames"] = int(frames[0])
         if row["peak_mb"] is None:
@@ -245,19 +249,20 @@ def fmt(v, spec):
     return format(v, spec) if v is not None else "n/a"
 def ratio(a, b):
     return a / b if a is not None and b not in (None, 0) else None
-print("%-10s %-13s %7s %9s %12s %9s %9s %12s %12s" % (
-    "scene", "method", "frames", "frames/s", "ATE RMSE mm", "peak MB", "wall s",
-    "fps hw/peer", "ATE hw/peer"))
+print("%-10s %-13s %7s %9s %12s %9s %9s %9s %12s %12s  %s" % (
+    "scene", "method", "frames", "frames/s", "ATE RMSE mm", "peak MB", "wall s", "CPU s",
+    "fps hw/peer", "ATE hw/peer", "status"))
 for r in rows:
     hw = next((x for x in rows if x["scene"] == r["scene"] and x["method"] == "heatwave"), None)
     if r["method"] != "heatwave" and hw is not None:
         r["fps_ratio_heatwave_over_peer"] = ratio(hw["fps"], r["fps"])
         r["ate_ratio_heatwave_over_peer"] = ratio(hw["ate_rmse_mm"], r["ate_rmse_mm"])
-    print("%-10s %-13s %7s %9s %12s %9s %9s %12s %12s" % (
+    print("%-10s %-13s %7s %9s %12s %9s %9s %9s %12s %12s  %s" % (
         r["scene"], r["method"], fmt(r["frames"], "d"), fmt(r["fps"], ".2f"),
         fmt(r["ate_rmse_mm"], ".2f"), fmt(r["peak_mb"], ".0f"), fmt(r["wall_s"], ".1f"),
+        fmt(r["cpu_s"], ".1f"),
         fmt(r.get("fps_ratio_heatwave_over_peer"), ".2f"),
-        fmt(r.get("ate_ratio_heatwave_over_peer"), ".2f")))
+        fmt(r.get("ate_ratio_heatwave_over_peer"), ".2f"), r["status"]))
 with open(sys.argv[2], "w") as f:
     json.dump({"rows": rows}, f, indent=2)
     f.write("\n")
