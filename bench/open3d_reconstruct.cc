@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
     hw::core::Trajectory trajectory;
     hw::bench::PeerResult result;
     result.method = "open3d";
-    hw::bench::LoopTimer loop, decode;
+    hw::bench::LoopTimer loop, decode, track_timer, integrate_timer, raycast_timer;
     Eigen::Matrix4d world_from_depth = Eigen::Matrix4d::Identity();
     Pyramid model;  // raycast of the model at the previous pose
     bool have_model = false;
@@ -126,6 +126,7 @@ int main(int argc, char** argv) {
       const o3g::Image depth(depth_tensor);
       const o3g::Image depth_nan = depth.ClipTransform(1.0f, depth_min, depth_max, NAN);
 
+      track_timer.Start();
       if (have_model) {
         // Source pyramid: the frame; target: the model raycast. The result maps source to
         // target, i.e. previous_from_current.
@@ -153,14 +154,18 @@ int main(int argc, char** argv) {
         }
         world_from_depth = world_from_depth * ToEigen4d(track.transformation_);
       }
+      track_timer.Stop();
 
+      integrate_timer.Start();
       const o3c::Tensor depth_from_world = ToTensor(world_from_depth.inverse());
       const o3c::Tensor blocks = grid.GetUniqueBlockCoordinates(depth, K, depth_from_world, 1.0f,
                                                                 depth_max, trunc_multiplier);
       grid.Integrate(blocks, depth, K, depth_from_world, 1.0f, depth_max, trunc_multiplier);
       ++fused;
+      integrate_timer.Stop();
 
       // Model raycast at this pose, for tracking the next frame.
+      raycast_timer.Start();
       const float weight_threshold = std::min(static_cast<float>(fused - 1), 3.0f);
       o3g::TensorMap cast = grid.RayCast(blocks, K, depth_from_world, frames.width(),
                                          frames.height(), {"depth", "vertex", "normal"}, 1.0f,
@@ -178,6 +183,7 @@ int main(int argc, char** argv) {
         model.normal[l] = vertex.CreateNormalMap(NAN).AsTensor();
       }
       have_model = true;
+      raycast_timer.Stop();
       loop.Stop();
 
       trajectory.Add(frames.Timestamp(i),
@@ -186,6 +192,9 @@ int main(int argc, char** argv) {
     }
     result.loop_s = loop.seconds();
     result.decode_s = decode.seconds();
+    result.track_s = track_timer.seconds();
+    result.integrate_s = integrate_timer.seconds();
+    result.raycast_s = raycast_timer.seconds();
     result.peak_rss_mb = hw::bench::PeakRssMb();
     hw::bench::WriteResults(options, trajectory, result);
   } catch (const hw::core::InputError& e) {

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     hw::core::Trajectory trajectory;
     hw::bench::PeerResult result;
     result.method = "opencv-kinfu";
-    hw::bench::LoopTimer loop, decode;
+    hw::bench::LoopTimer loop, decode, track_timer, integrate_timer;
     cv::Affine3d world_from_depth = cv::Affine3d::Identity();
     cv::Ptr<cv::rgbd::OdometryFrame> previous;
     for (int i = 0; i < frames.size(); ++i) {
@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
       decode.Stop();
 
       loop.Start();
+      track_timer.Start();
       cv::Ptr<cv::rgbd::OdometryFrame> current =
           cv::rgbd::OdometryFrame::create(cv::Mat(), depth_m);
       // Pyramids, normals and masks once per frame: as source now, as destination next time.
@@ -75,8 +76,11 @@ int main(int argc, char** argv) {
           ++result.failed_frames;
         }
       }
+      track_timer.Stop();
+      integrate_timer.Start();
       volume->integrate(depth_m, 1.0f, cv::Matx44f(world_from_depth.matrix), intrinsics, i);
       previous = current;
+      integrate_timer.Stop();
       loop.Stop();
 
       const cv::Matx44d& m = world_from_depth.matrix;
@@ -89,6 +93,8 @@ int main(int argc, char** argv) {
     }
     result.loop_s = loop.seconds();
     result.decode_s = decode.seconds();
+    result.track_s = track_timer.seconds();
+    result.integrate_s = integrate_timer.seconds();
     result.peak_rss_mb = hw::bench::PeakRssMb();
     hw::bench::WriteResults(options, trajectory, result);
   } catch (const hw::core::InputError& e) {

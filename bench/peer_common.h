@@ -91,6 +91,8 @@ struct PeerResult {
   int skipped_frames = 0;     // frames whose file is missing
   int failed_frames = 0;      // frames whose tracking the peer reported as failed
   double loop_s = 0;          // wall time of processing, decoding excluded, s
+  // ... of which tracking, integration and raycasting (0 when the peer has no raycast), s
+  double track_s = 0, integrate_s = 0, raycast_s = 0;
   double decode_s = 0;        // wall time of decoding the frames, s
   double peak_rss_mb = 0;     // PeakRssMb() at the end
   double fps() const { return loop_s > 0 ? frames / loop_s : 0; }
