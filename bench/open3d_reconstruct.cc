@@ -13,11 +13,12 @@
 //              ComputeOdometryResultPointToPlane iterated over a 3-level pyramid (6, 3, 1
 //              iterations coarse to fine: Model's defaults), depth_outlier_trunc 0.07 m,
 //              Huber delta 0.05 m (OdometryLossParams' defaults); the fine level takes the
-//              raycast's own vertex and normal maps, coarser levels are made from the
-//              raycast depth with PyrDownDepth, CreateVertexMap and CreateNormalMap;
+//              raycast's normals (TSDF gradient, camera frame) and the vertices of its depth,
+//              coarser levels are made from the raycast depth with PyrDownDepth,
+//              CreateVertexMap and CreateNormalMap;
 //   integrate  VoxelBlockGrid "tsdf" + "weight", Float32 (the python examples' layout, depth
 //              only: the peer is spared colour fusion), blocks of 16³ voxels;
-//   raycast    "depth", "vertex", "normal" in the frustum blocks of the last integration,
+//   raycast    "depth" and "normal" in the frustum blocks of the last integration,
 //              weight threshold min(frame index, 3) as Model::SynthesizeModelFrame.
 // No constant-velocity prediction and no failure handling: Open3D's loop has neither.
 // Open3D's CPU kernels use OpenMP: run with OMP_WAIT_POLICY=PASSIVE (the script does), as
@@ -168,14 +169,17 @@ int main(int argc, char** argv) {
       raycast_timer.Start();
       const float weight_threshold = std::min(static_cast<float>(fused - 1), 3.0f);
       o3g::TensorMap cast = grid.RayCast(blocks, K, depth_from_world, frames.width(),
-                                         frames.height(), {"depth", "vertex", "normal"}, 1.0f,
+                                         frames.height(), {"depth", "normal"}, 1.0f,
                                          depth_min, depth_max, weight_threshold, trunc_multiplier,
                                          range_map_down_factor);
       model.vertex.assign(levels, {});
       model.normal.assign(levels, {});
-      model.vertex[levels - 1] = cast["vertex"];
-      model.normal[levels - 1] = cast["normal"];
+      // The fine level's vertices come from the raycast depth rather than its "vertex" map
+      // (equal where a ray hit, verified): pixels without a hit must be NaN, which the
+      // odometry kernel skips, not the zero vertex the raycast leaves there.
       o3g::Image level = o3g::Image(cast["depth"]).ClipTransform(1.0f, depth_min, depth_max, NAN);
+      model.vertex[levels - 1] = level.CreateVertexMap(K_pyramid[levels - 1], NAN).AsTensor();
+      model.normal[levels - 1] = cast["normal"];
       for (int l = levels - 2; l >= 0; --l) {
         level = level.PyrDownDepth(kDepthOutlierTrunc * 2, NAN);
         o3g::Image vertex = level.CreateVertexMap(K_pyramid[l], NAN);
