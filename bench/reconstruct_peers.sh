@@ -204,13 +204,8 @@ for scene in $scenes; do
     status=ok
     case "$method" in
       heatwave)
-        # --voxel-size is passed when heatwave reconstruct has the option (it is its default).
-        vargs=()
-        if "$heatwave" reconstruct --help 2>/dev/null | grep -q -- '--voxel-size'; then
-          vargs=(--voxel-size "$voxel")
-        elif [ "$voxel" != 0.005 ]; then
-          echo "reconstruct_peers: heatwave reconstruct has no --voxel-size: its default runs" >&2
-        fi
+        # The peers' depth range (0.3–4 m, bench/peer_common.h) and voxel size.
+        vargs=(--voxel-size "$voxel" --max-depth 4 --min-depth 0.3)
         # Its own fresh --out folder: run_dir already holds this script's files.
         timed "$run_dir" "$heatwave" reconstruct "$scan" --out "$run_dir/out" "${vargs[@]}" \
             > "$run_dir/log.txt" 2>&1 || status=failed

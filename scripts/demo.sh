@@ -2,8 +2,9 @@
 # Quick start, command 1: install, build, and run the main job on the bundled demo.
 # The demo scan is not stored in git: it is rendered deterministically (seed 1) from the
 # bundled synthetic "equipment" scene — a plant room with an open cabinet, pipes and a motor
-# with six planted hot spots — then validated and summarised. Until the audit pipeline
-# (reconstruct → analyze → report) exists, these are the stages that run.
+# with six planted hot spots — then validated, summarised and reconstructed into a coloured
+# 3D model. Until the rest of the audit pipeline (thermal mapping → analyze → report) exists,
+# these are the stages that run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
@@ -16,4 +17,8 @@ echo
 echo "== heatwave scan-info: validate it, decoding every frame"
 "$heatwave" scan-info "$out" --check-frames
 echo
+echo "== heatwave reconstruct: track the depth stream, fuse and mesh a coloured model"
+"$heatwave" reconstruct "$out" --out build/demo/reconstruction --overwrite
+echo
 echo "Demo scan: $out  (ground truth in $out/truth/: scene.ply, hotspots.yaml)"
+echo "Model:     build/demo/reconstruction/model.ply (MeshLab, CloudCompare), trajectory.txt, reconstruct.json"

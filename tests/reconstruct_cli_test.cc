@@ -171,6 +171,25 @@ TEST(ReconstructCli, InterruptedRunLeavesNoOutputFile) {
   EXPECT_FALSE(fs::exists(out / "reconstruct.json"));
 }
 
+TEST(ReconstructCli, TumSequenceWithRigOption) {
+  // A TUM RGB-D sequence has no rig.yaml: depth.txt, rgb.txt, the frame folders and
+  // groundtruth.txt; the rig comes from --rig.
+  const fs::path tum = CopyOfScan("tum");
+  const fs::path rig = TestFolder("rig") / "kinect.yaml";
+  fs::rename(tum / "rig.yaml", rig);
+  fs::remove_all(tum / "truth");
+  const fs::path out = FreshPath("out");
+  const Result without = Heatwave("reconstruct " + tum.string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(without.exit_code, 1) << without.output;
+  EXPECT_NE(without.output.find("rig.yaml"), std::string::npos) << without.output;
+  const Result r = Heatwave("reconstruct " + tum.string() + " --rig " + rig.string() + " --out " +
+                            out.string() + " --voxel-size 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("ATE RMSE"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("Surface"), std::string::npos) << r.output;  // no truth mesh
+  EXPECT_TRUE(fs::exists(out / "model.ply"));
+}
+
 TEST(ReconstructCli, BadOptionsAreExit2) {
   const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                             " --voxel-size 0");
