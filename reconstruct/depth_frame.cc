@@ -384,6 +384,9 @@ std::string DepthFilterOptions::Check() const {
   if (!(normal_max_jump_fraction > 0 && normal_max_jump_fraction <= 1)) {
     return Fail("normal_max_jump_fraction", normal_max_jump_fraction, "in (0, 1]");
   }
+  if (first_map_level < 0 || first_map_level >= num_levels) {
+    return Fail("first_map_level", first_map_level, "in [0, num_levels)");
+  }
   if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0 (0: hardware concurrency)");
   return "";
 }
@@ -406,7 +409,9 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   DepthLevel level0;
   level0.camera = camera;
   level0.depth_m = Bilateral(pyramid.raw_depth_m, options);
-  level0.map = MapOf(level0.depth_m, camera, normal_jump, options.num_threads);
+  if (options.first_map_level == 0) {
+    level0.map = MapOf(level0.depth_m, camera, normal_jump, options.num_threads);
+  }
   if (!rgb.empty()) {
     assert(rgb.type() == CV_8UC3 && rgb.cols == camera.width && rgb.rows == camera.height);
     level0.intensity = Grey(rgb);
@@ -419,7 +424,9 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
     level.camera = above.camera.Half();
     level.depth_m = HalfDepth(above.depth_m, static_cast<float>(options.bilateral_sigma_depth_m),
                               options.num_threads);
-    level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
+    if (l >= options.first_map_level) {
+      level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
+    }
     if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity);
     pyramid.levels.push_back(std::move(level));
   }

@@ -55,6 +55,10 @@ struct DepthFilterOptions {
   int num_levels = 3;  // pyramid levels, each half the size of the previous, in [1, 5]
   // Normals from neighbours at most this far (fraction of depth) from the centre, in (0, 1].
   double normal_max_jump_fraction = 0.05;
+  // Levels finer than this get no point and normal maps (DepthLevel::map stays empty): the
+  // pipeline does not track on them when it raycasts the model at a coarser level, and their
+  // normals are a fifth of the pyramid's cost. In [0, num_levels).
+  int first_map_level = 0;
   int num_threads = 0;  // row bands run at once, >= 0 (0: hardware concurrency)
 
   std::string Check() const;

@@ -377,5 +377,27 @@ TEST(BuildDepthPyramid, ThreadCountDoesNotChangeTheResult) {
   }
 }
 
+TEST(BuildDepthPyramid, FirstMapLevelSkipsOnlyTheFinerMaps) {
+  const PinholeCamera camera = SmallCamera();
+  const cv::Mat depth = PlaneDepth(camera, {0.1f, 0.05f, 0.5f});
+  DepthFilterOptions all, coarse;
+  coarse.first_map_level = 1;
+  const DepthPyramid a = BuildDepthPyramid(depth, camera, all);
+  const DepthPyramid b = BuildDepthPyramid(depth, camera, coarse);
+  ASSERT_EQ(a.levels.size(), b.levels.size());
+  EXPECT_TRUE(b.levels[0].map.points.empty());
+  EXPECT_EQ(cv::norm(a.levels[0].depth_m, b.levels[0].depth_m, cv::NORM_INF), 0);
+  for (size_t l = 1; l < a.levels.size(); ++l) {
+    EXPECT_EQ(cv::norm(a.levels[l].depth_m, b.levels[l].depth_m, cv::NORM_INF), 0);
+    ASSERT_EQ(a.levels[l].map.points.size(), b.levels[l].map.points.size());
+    for (size_t i = 0; i < a.levels[l].map.points.size(); ++i) {
+      ASSERT_EQ(IsValid(a.levels[l].map.points[i]), IsValid(b.levels[l].map.points[i]));
+      if (IsValid(a.levels[l].map.points[i])) ASSERT_EQ(a.levels[l].map.points[i], b.levels[l].map.points[i]);
+    }
+  }
+  coarse.first_map_level = 3;
+  EXPECT_NE(coarse.Check().find("first_map_level"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace hw::reconstruct

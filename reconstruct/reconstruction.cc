@@ -29,6 +29,7 @@ ReconstructionOptions Effective(ReconstructionOptions o) {
       o.mesh.num_threads = o.num_threads;
   if (o.raycast_level >= 0 && o.raycast_level < static_cast<int>(o.icp.iterations.size())) {
     for (int l = 0; l < o.raycast_level; ++l) o.icp.iterations[l] = 0;
+    if (o.raycast_level < o.depth.num_levels) o.depth.first_map_level = o.raycast_level;
   }
   return o;
 }
