@@ -108,7 +108,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
   }
-  o.Number("prepare_ms", f.prepare_ms)
+  o.Int("blocks", static_cast<int64_t>(f.blocks))
+      .Number("prepare_ms", f.prepare_ms)
       .Number("track_ms", f.track_ms)
       .Number("integrate_ms", f.integrate_ms)
       .Number("raycast_ms", f.raycast_ms);

@@ -239,6 +239,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   record.fused = true;
   Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   UpdateModel(world_from_depth, record);
+  record.blocks = volume_.NumBlocks();
   frames_.push_back(record);
   return frames_.back();
 }
