@@ -361,6 +361,21 @@ TriangleMesh Reconstruction::ExtractMesh(MeshStats* stats) const {
   return reconstruct::ExtractMesh(volume_, options_.mesh, stats);
 }
 
+FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb) {
+  using core::Stream;
+  FrameInput frame;
+  frame.timestamp_s = scan.Timestamp(Stream::kDepth, depth_index);
+  frame.depth_m = scan.LoadDepth(depth_index);
+  if (with_rgb && scan.rig().rgb) {
+    const std::optional<int> j = scan.AssociatedFrame(depth_index, Stream::kRgb);
+    if (j && scan.FrameExists(Stream::kRgb, *j)) {
+      frame.rgb = scan.LoadRgb(*j);
+      frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
+    }
+  }
+  return frame;
+}
+
 ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
                                    const ScanReconstructionOptions& options,
                                    const std::function<void(int, int)>& frame_done) {
@@ -382,16 +397,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
       continue;
     }
     auto load_start = std::chrono::steady_clock::now();
-    FrameInput frame;
-    frame.timestamp_s = t;
-    frame.depth_m = scan.LoadDepth(i);
-    if (use_rgb) {
-      const std::optional<int> j = scan.AssociatedFrame(i, Stream::kRgb);
-      if (j && scan.FrameExists(Stream::kRgb, *j)) {
-        frame.rgb = scan.LoadRgb(*j);
-        frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
-      }
-    }
+    const FrameInput frame = LoadScanFrame(scan, i, use_rgb);
     out.load_seconds += Ms(load_start) / 1000;
 
     if (options.start_at_groundtruth && reconstruction.trajectory().empty()) {

@@ -167,6 +167,11 @@ cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
                        const core::Rigid3d& rgb_from_depth);
 
+// Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with its
+// associated rgb frame (Scan::AssociatedFrame, at that frame's depth-clock time) when with_rgb
+// and the rgb file exists. Throws core::InputError as Scan::Load*.
+FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb);
+
 // Options of ReconstructScan beyond the pipeline's.
 struct ScanReconstructionOptions {
   // Start at the scan's groundtruth pose of the first frame instead of identity, so that the

@@ -101,13 +101,7 @@ TEST(Reconstruction, FrameByFrameEqualsWholeScan) {
   Reconstruction live(scan.rig(), TestOptions());
   for (int i = 0; i < 10; ++i) {
     if (!scan.FrameExists(Stream::kDepth, i)) continue;
-    FrameInput frame;
-    frame.timestamp_s = scan.Timestamp(Stream::kDepth, i);
-    frame.depth_m = scan.LoadDepth(i);
-    if (const auto j = scan.AssociatedFrame(i, Stream::kRgb)) {
-      frame.rgb = scan.LoadRgb(*j);
-      frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
-    }
+    FrameInput frame = LoadScanFrame(scan, i, true);
     live.AddFrame(frame);
   }
   ASSERT_EQ(live.trajectory().size(), whole.trajectory().size());
@@ -126,13 +120,7 @@ TEST(Reconstruction, GarbageFrameIsLostNotFusedAndTrackingRecovers) {
   int bad_index = -1;
   for (int i = 0; i < n; ++i) {
     if (!scan.FrameExists(Stream::kDepth, i)) continue;
-    FrameInput frame;
-    frame.timestamp_s = scan.Timestamp(Stream::kDepth, i);
-    frame.depth_m = scan.LoadDepth(i);
-    if (const auto j = scan.AssociatedFrame(i, Stream::kRgb)) {
-      frame.rgb = scan.LoadRgb(*j);
-      frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
-    }
+    FrameInput frame = LoadScanFrame(scan, i, true);
     if (i == 10) {
       // A view of something else: the frame upside down and 60 cm deeper (a person stepping
       // in front of the sensor looks no more like the model than this).
