@@ -8,6 +8,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
@@ -34,8 +35,18 @@ inline fixtures::SynthScanOptions TestScanOptions(const std::string& scene = "eq
   return o;
 }
 
+// Newest modification time of the fixtures libraries: a scan rendered before them may no
+// longer be what the fixtures render.
+inline fs::file_time_type FixturesBuildTime() {
+  fs::file_time_type newest{};
+  for (const auto& entry : fs::directory_iterator(fs::path(HW_BINARY_DIR) / "fixtures")) {
+    if (entry.path().extension() == ".a") newest = std::max(newest, entry.last_write_time());
+  }
+  return newest;
+}
+
 // The folder of the scan `options` renders, under <build>/test-data/<name>, rendered now if
-// it is not there yet (or a previous render did not finish).
+// it is not there yet, a previous render did not finish, or the fixtures were rebuilt since.
 inline fs::path CachedScan(const std::string& name, const fixtures::SynthScanOptions& options) {
   const fs::path root = fs::path(HW_BINARY_DIR) / "test-data";
   fs::create_directories(root);
@@ -44,7 +55,8 @@ inline fs::path CachedScan(const std::string& name, const fixtures::SynthScanOpt
   EXPECT_GE(lock, 0);
   ::flock(lock, LOCK_EX);
   const bool complete = fs::exists(folder / "depth.txt") &&
-                        core::ProbeFolderRun(folder).state == core::FolderRunState::kComplete;
+                        core::ProbeFolderRun(folder).state == core::FolderRunState::kComplete &&
+                        fs::last_write_time(folder / "depth.txt") > FixturesBuildTime();
   if (!complete) {
     fs::remove_all(folder);
     core::OutputFolder out(folder, "reconstruct test scan");
