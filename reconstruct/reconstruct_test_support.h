@@ -38,7 +38,8 @@ inline fixtures::SynthScanOptions TestScanOptions(const std::string& scene = "eq
 // Newest modification time of the fixtures libraries: a scan rendered before them may no
 // longer be what the fixtures render.
 inline fs::file_time_type FixturesBuildTime() {
-  fs::file_time_type newest{};
+  // Not {}: libstdc++'s file clock counts from 2174, so real times are negative.
+  fs::file_time_type newest = fs::file_time_type::min();
   for (const auto& entry : fs::directory_iterator(fs::path(HW_BINARY_DIR) / "fixtures")) {
     if (entry.path().extension() == ".a") newest = std::max(newest, entry.last_write_time());
   }
