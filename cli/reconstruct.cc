@@ -77,6 +77,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Bool("integrate_colour", r.integrate_colour)
       .Number("min_valid_depth_fraction", r.min_valid_depth_fraction)
       .Number("relocalisation_widening", r.relocalisation_widening)
+      .Number("max_residual_ratio", r.max_residual_ratio)
+      .Number("max_condition_ratio", r.max_condition_ratio)
       .Int("num_threads", r.num_threads)
       .Bool("start_at_groundtruth", o.scan.start_at_groundtruth)
       .Int("first_frame", o.scan.first_frame)

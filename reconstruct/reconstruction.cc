@@ -40,6 +40,10 @@ double Ms(std::chrono::steady_clock::time_point since) {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
+// Largest time between a depth frame and the colour frame used with it, s: three frames at
+// 30 Hz (a dropped frame or two), short enough for the predicted motion to bridge.
+constexpr double kMaxColourGapS = 0.1;
+
 }  // namespace
 
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
@@ -85,6 +89,9 @@ std::string ReconstructionOptions::Check() const {
   }
   if (!(relocalisation_widening >= 1) || !std::isfinite(relocalisation_widening)) {
     return Fail("relocalisation_widening", relocalisation_widening, ">= 1");
+  }
+  if (!(max_condition_ratio > 1) || !std::isfinite(max_condition_ratio)) {
+    return Fail("max_condition_ratio", max_condition_ratio, "> 1 and finite");
   }
   if (!(max_residual_ratio > 1) || !std::isfinite(max_residual_ratio)) {
     return Fail("max_residual_ratio", max_residual_ratio, "> 1 and finite");
@@ -271,11 +278,15 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
 
   // The residual gate relative to the frames tracked before.
   double max_residual_m = std::numeric_limits<double>::infinity();
+  double max_condition = std::numeric_limits<double>::infinity();
   constexpr size_t kMinHistory = 5, kHistory = 30;
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
   if (recent_residuals_m_.size() >= kMinHistory) {
-    std::vector<double> sorted = recent_residuals_m_;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    max_residual_m = options_.max_residual_ratio * sorted[sorted.size() / 2];
+    max_residual_m = options_.max_residual_ratio * median(recent_residuals_m_);
+    max_condition = options_.max_condition_ratio * median(recent_conditions_);
   }
   IcpResult best;
   bool ok = false;
@@ -283,6 +294,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     IcpResult result = AlignToModel(pyramid, *model_, initial, icp);
     if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
       result.status = IcpStatus::kLargeResidual;
+    }
+    if (result.status == IcpStatus::kOk && result.condition > max_condition) {
+      result.status = IcpStatus::kIllConditioned;
     }
     if (result.status == IcpStatus::kOk) {
       best = result;
@@ -303,7 +317,11 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   if (ok) {
     world_from_depth = best.world_from_camera;
     recent_residuals_m_.push_back(best.residual_rms_m);
-    if (recent_residuals_m_.size() > kHistory) recent_residuals_m_.erase(recent_residuals_m_.begin());
+    recent_conditions_.push_back(best.condition);
+    if (recent_residuals_m_.size() > kHistory) {
+      recent_residuals_m_.erase(recent_residuals_m_.begin());
+      recent_conditions_.erase(recent_conditions_.begin());
+    }
   }
   return ok;
 }
@@ -367,7 +385,13 @@ FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb)
   frame.timestamp_s = scan.Timestamp(Stream::kDepth, depth_index);
   frame.depth_m = scan.LoadDepth(depth_index);
   if (with_rgb && scan.rig().rgb) {
-    const std::optional<int> j = scan.AssociatedFrame(depth_index, Stream::kRgb);
+    // The nearest colour frame within kMaxColourGapS, not only an associated one (within half a
+    // frame): a dropped colour frame must not leave the depth frame without its photometric
+    // term — on a wall, geometry alone lets ICP slide (measured: 80 mm in one frame). The
+    // motion between the two exposures is compensated (registration and integration use the
+    // pose at the colour frame's own time).
+    const std::optional<int> j =
+        scan.NearestFrame(Stream::kRgb, scan.DepthClockTime(Stream::kDepth, depth_index), kMaxColourGapS);
     if (j && scan.FrameExists(Stream::kRgb, *j)) {
       frame.rgb = scan.LoadRgb(*j);
       frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);

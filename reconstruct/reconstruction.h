@@ -64,6 +64,10 @@ struct ReconstructionOptions {
   // cannot tell misalignment from a noisier sensor or scene, a relative one can (fast motion
   // blurs depth, and a wrong pose leaves a residual well above the frames before it). > 1.
   double max_residual_ratio = 2.0;
+  // Likewise for the condition of the ICP system: a frame whose geometry and texture constrain
+  // the pose this many times worse than the median of the last tracked frames (a frame without
+  // colour facing a wall) counts as failed rather than sliding. > 1.
+  double max_condition_ratio = 5.0;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
 
@@ -155,6 +159,7 @@ class Reconstruction {
   std::optional<ModelPyramid> model_;  // raycast at the last fused pose
   bool lost_ = false;
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
+  std::vector<double> recent_conditions_;   // likewise
   double last_timestamp_s_ = -1e300;
 };
 
@@ -167,9 +172,9 @@ cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
                        const core::Rigid3d& rgb_from_depth);
 
-// Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with its
-// associated rgb frame (Scan::AssociatedFrame, at that frame's depth-clock time) when with_rgb
-// and the rgb file exists. Throws core::InputError as Scan::Load*.
+// Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with the rgb
+// frame nearest in time within 0.1 s (at that frame's depth-clock time) when with_rgb and its
+// file exists. Throws core::InputError as Scan::Load*.
 FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb);
 
 // Options of ReconstructScan beyond the pipeline's.
