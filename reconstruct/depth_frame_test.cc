@@ -392,7 +392,9 @@ TEST(BuildDepthPyramid, FirstMapLevelSkipsOnlyTheFinerMaps) {
     ASSERT_EQ(a.levels[l].map.points.size(), b.levels[l].map.points.size());
     for (size_t i = 0; i < a.levels[l].map.points.size(); ++i) {
       ASSERT_EQ(IsValid(a.levels[l].map.points[i]), IsValid(b.levels[l].map.points[i]));
-      if (IsValid(a.levels[l].map.points[i])) ASSERT_EQ(a.levels[l].map.points[i], b.levels[l].map.points[i]);
+      if (IsValid(a.levels[l].map.points[i])) {
+        ASSERT_EQ(a.levels[l].map.points[i], b.levels[l].map.points[i]);
+      }
     }
   }
   coarse.first_map_level = 3;
