@@ -220,6 +220,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   if (record.valid_depth_fraction < options_.min_valid_depth_fraction ||
       record.valid_depth_fraction == 0) {
     record.status = FrameStatus::kNoDepth;
+    record.blocks = volume_.NumBlocks();
     frames_.push_back(record);
     return frames_.back();
   }
@@ -236,7 +237,8 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     if (!ok) {
       lost_ = true;
       record.status = FrameStatus::kLost;
-      frames_.push_back(record);
+      record.blocks = volume_.NumBlocks();
+    frames_.push_back(record);
       return frames_.back();
     }
     lost_ = false;

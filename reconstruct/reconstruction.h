@@ -107,7 +107,8 @@ struct FrameRecord {
   int iterations = 0;
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;
-  size_t blocks = 0;  // voxel blocks in the volume after this frame (memory follows them)
+  size_t blocks = 0;  // voxel blocks in the volume after this frame, fused or not (memory
+                      // follows them)
   // Wall time of each stage, ms.
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
 };
