@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "note: OMP_WAIT_POLICY is not PASSIVE: OpenMP threads spin\n");
   }
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Warning);
-  try {
+  return hw::bench::RunHarness("open3d", [&] {
     const hw::bench::DepthFrames frames(options);
     const int levels = static_cast<int>(kIterations.size());
     const o3c::Device cpu("CPU:0");
@@ -201,15 +201,6 @@ int main(int argc, char** argv) {
     result.raycast_s = raycast_timer.seconds();
     result.peak_rss_mb = hw::bench::PeakRssMb();
     hw::bench::WriteResults(options, trajectory, result);
-  } catch (const hw::core::InputError& e) {
-    std::fprintf(stderr, "%s\n", e.what());
-    return 1;
-  } catch (const hw::core::OutputError& e) {
-    std::fprintf(stderr, "%s\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {  // Open3D reports errors as std::runtime_error
-    std::fprintf(stderr, "open3d: %s\n", e.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }

@@ -32,7 +32,7 @@ constexpr float kRaycastStepFactor = 0.25f;  // VolumeParams::defaultParams (unu
 int main(int argc, char** argv) {
   const hw::bench::PeerOptions options = hw::bench::ParsePeerOptions(
       argc, argv, "OpenCV-contrib FastICPOdometry + kinfu HashTSDF over a heatwave scan");
-  try {
+  return hw::bench::RunHarness("opencv", [&] {
     const hw::bench::DepthFrames frames(options);
     const cv::Matx33f K(static_cast<float>(frames.fx()), 0, static_cast<float>(frames.cx()), 0,
                         static_cast<float>(frames.fy()), static_cast<float>(frames.cy()), 0, 0,
@@ -97,15 +97,6 @@ int main(int argc, char** argv) {
     result.integrate_s = integrate_timer.seconds();
     result.peak_rss_mb = hw::bench::PeakRssMb();
     hw::bench::WriteResults(options, trajectory, result);
-  } catch (const hw::core::InputError& e) {
-    std::fprintf(stderr, "%s\n", e.what());
-    return 1;
-  } catch (const hw::core::OutputError& e) {
-    std::fprintf(stderr, "%s\n", e.what());
-    return 1;
-  } catch (const cv::Exception& e) {
-    std::fprintf(stderr, "opencv: %s\n", e.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }

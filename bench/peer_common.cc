@@ -167,4 +167,17 @@ void WriteResults(const PeerOptions& options, const core::Trajectory& trajectory
   core::WriteFileAtomically(options.summary, json.str());
 }
 
+int RunHarness(const char* peer, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const core::InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+  } catch (const core::OutputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", peer, e.what());
+  }
+  return 1;
+}
+
 }  // namespace hw::bench

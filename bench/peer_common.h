@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <Eigen/Core>
@@ -102,5 +103,11 @@ struct PeerResult {
 // prints the one-line result on stdout. Throws core::OutputError.
 void WriteResults(const PeerOptions& options, const core::Trajectory& trajectory,
                   const PeerResult& result);
+
+// Runs a harness's body: its return value, or 1 after printing one line on stderr for a
+// bad scan (core::InputError), an unwritable output (core::OutputError) or the peer library's
+// own error (any other std::exception: Open3D's runtime_error, cv::Exception), prefixed with
+// `peer`.
+int RunHarness(const char* peer, const std::function<int()>& body);
 
 }  // namespace hw::bench
