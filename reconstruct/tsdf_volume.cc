@@ -100,13 +100,35 @@ TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
 
 TsdfSampler::Status TsdfSampler::SampleAcrossBlocks(int ix, int iy, int iz, float fx, float fy, float fz,
                                                     float& sdf) {
+  // The cell's lowest corner is in block k and at voxel l of it; per axis the upper corner
+  // is in the next block only when l is the block's last voxel. Each distinct block is
+  // looked up once (two, four or eight of them), not once per corner.
   const int m = kBlockSide - 1;
+  const int kx = ix >> kBlockShift, ky = iy >> kBlockShift, kz = iz >> kBlockShift;
+  const int lx = ix & m, ly = iy & m, lz = iz & m;
+  const int nx = lx == m, ny = ly == m, nz = lz == m;
+  const VoxelBlock* b[2][2][2];  // [z][y][x]: 0 the lowest corner's block, 1 the next one
+  for (int z = 0; z <= 1; ++z) {
+    for (int y = 0; y <= 1; ++y) {
+      for (int x = 0; x <= 1; ++x) {
+        const int dx = x & nx, dy = y & ny, dz = z & nz;
+        if ((dx != x) | (dy != y) | (dz != z)) {
+          b[z][y][x] = b[dz][dy][dx];  // the block of a corner already looked up
+        } else {
+          b[z][y][x] = Block(kx + dx, ky + dy, kz + dz);
+        }
+      }
+    }
+  }
+  const int ox[2] = {lx, (lx + 1) & m};
+  const int oy[2] = {kBlockSide * ly, kBlockSide * ((ly + 1) & m)};
+  const int oz[2] = {kBlockSide * kBlockSide * lz, kBlockSide * kBlockSide * ((lz + 1) & m)};
   float s[8];
   for (int c = 0; c < 8; ++c) {
-    const int x = ix + (c & 1), y = iy + ((c >> 1) & 1), z = iz + (c >> 2);
-    const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
-    if (b == nullptr) return Status::kUnobserved;
-    const Voxel& v = b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
+    const int x = c & 1, y = (c >> 1) & 1, z = c >> 2;
+    const VoxelBlock* block = b[z][y][x];
+    if (block == nullptr) return Status::kUnobserved;
+    const Voxel& v = block->voxels[ox[x] + oy[y] + oz[z]];
     if (!(v.weight > 0)) return Status::kUnobserved;
     s[c] = v.sdf;
   }
