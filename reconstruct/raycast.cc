@@ -34,14 +34,48 @@ namespace {
 // at the front of the nearest block instead of crossing empty space block by block.
 constexpr int kTile = 8;
 
-struct DepthRanges {
-  int tiles_x = 0, tiles_y = 0;
-  std::vector<float> near_m, far_m;  // per tile; near > far when no block projects there
+// Depth range and pixel bounding box of a box's projection: the box is c0 + a·ex + b·ey + c·ez
+// for a, b, c in [0, 1] (camera frame, metres). `straddles` when a corner is at or behind the
+// camera plane (then u, v bound nothing).
+struct Footprint {
+  float z_lo, z_hi, u_lo, u_hi, v_lo, v_hi;
+  bool straddles;
 };
+Footprint Project(const PinholeCamera& camera, const Eigen::Vector3f& c0, const Eigen::Vector3f& ex,
+                  const Eigen::Vector3f& ey, const Eigen::Vector3f& ez) {
+  Footprint f;
+  f.z_lo = std::numeric_limits<float>::infinity();
+  f.z_hi = -f.z_lo;
+  f.u_lo = f.v_lo = f.z_lo;
+  f.u_hi = f.v_hi = f.z_hi;
+  f.straddles = false;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3f p = c0 + ((c & 1) ? ex : Eigen::Vector3f::Zero()) +
+                              ((c & 2) ? ey : Eigen::Vector3f::Zero()) + ((c & 4) ? ez : Eigen::Vector3f::Zero());
+    f.z_lo = std::min(f.z_lo, p.z());
+    f.z_hi = std::max(f.z_hi, p.z());
+    if (p.z() < 1e-3f) {
+      f.straddles = true;
+      continue;
+    }
+    const Eigen::Vector2f uv = camera.Project(p);
+    f.u_lo = std::min(f.u_lo, uv.x());
+    f.u_hi = std::max(f.u_hi, uv.x());
+    f.v_lo = std::min(f.v_lo, uv.y());
+    f.v_hi = std::max(f.v_hi, uv.y());
+  }
+  return f;
+}
+
+}  // namespace
+
+namespace internal {
 
 DepthRanges ProjectBlocks(const TsdfVolume& volume, const PinholeCamera& camera,
-                          const core::Rigid3d& world_from_camera, float min_depth_m, float max_depth_m) {
+                          const core::Rigid3d& world_from_camera, float min_depth_m, float max_depth_m,
+                          bool cull_regions) {
   DepthRanges r;
+  r.tile = kTile;
   r.tiles_x = (camera.width + kTile - 1) / kTile;
   r.tiles_y = (camera.height + kTile - 1) / kTile;
   r.near_m.assign(size_t(r.tiles_x) * r.tiles_y, std::numeric_limits<float>::infinity());
@@ -55,37 +89,20 @@ DepthRanges ProjectBlocks(const TsdfVolume& volume, const PinholeCamera& camera,
   // block matters for points from its first voxel's centre to one voxel past its last.
   const Eigen::Vector3f ex = rotation.col(0) * block_m, ey = rotation.col(1) * block_m,
                         ez = rotation.col(2) * block_m;
-  volume.ForEachBlock([&](const VoxelBlock& block) {
-    const Eigen::Vector3f c0 = rotation * (block.key.cast<float>() * block_m) + translation;
-    float z_lo = std::numeric_limits<float>::infinity(), z_hi = -z_lo;
-    float u_lo = z_lo, u_hi = z_hi, v_lo = z_lo, v_hi = z_hi;
-    bool straddles = false;
-    for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3f p = c0 + ((c & 1) ? ex : Eigen::Vector3f::Zero()) +
-                                ((c & 2) ? ey : Eigen::Vector3f::Zero()) + ((c & 4) ? ez : Eigen::Vector3f::Zero());
-      z_lo = std::min(z_lo, p.z());
-      z_hi = std::max(z_hi, p.z());
-      if (p.z() < 1e-3f) {
-        straddles = true;
-        continue;
-      }
-      const Eigen::Vector2f uv = camera.Project(p);
-      u_lo = std::min(u_lo, uv.x());
-      u_hi = std::max(u_hi, uv.x());
-      v_lo = std::min(v_lo, uv.y());
-      v_hi = std::max(v_hi, uv.y());
-    }
-    if (z_hi < min_depth_m || z_lo > max_depth_m) return;
+  auto project_block = [&](const VoxelBlock& block) {
+    Footprint f = Project(camera, rotation * (block.key.cast<float>() * block_m) + translation, ex, ey, ez);
+    if (f.z_hi < min_depth_m || f.z_lo > max_depth_m) return;
     int tx0 = 0, tx1 = r.tiles_x - 1, ty0 = 0, ty1 = r.tiles_y - 1;
-    if (!straddles) {  // else (at or behind the camera plane) it may cover any pixel
-      if (u_hi < -0.5f || v_hi < -0.5f || u_lo > camera.width - 0.5f || v_lo > camera.height - 0.5f) return;
-      tx0 = std::max(0, static_cast<int>(std::floor(u_lo + 0.5f)) / kTile);
-      ty0 = std::max(0, static_cast<int>(std::floor(v_lo + 0.5f)) / kTile);
-      tx1 = std::min(r.tiles_x - 1, static_cast<int>(std::floor(u_hi + 0.5f)) / kTile);
-      ty1 = std::min(r.tiles_y - 1, static_cast<int>(std::floor(v_hi + 0.5f)) / kTile);
+    if (!f.straddles) {  // else (at or behind the camera plane) it may cover any pixel
+      if (f.u_hi < -0.5f || f.v_hi < -0.5f || f.u_lo > camera.width - 0.5f || f.v_lo > camera.height - 0.5f) {
+        return;
+      }
+      tx0 = std::max(0, static_cast<int>(std::floor(f.u_lo + 0.5f)) / kTile);
+      ty0 = std::max(0, static_cast<int>(std::floor(f.v_lo + 0.5f)) / kTile);
+      tx1 = std::min(r.tiles_x - 1, static_cast<int>(std::floor(f.u_hi + 0.5f)) / kTile);
+      ty1 = std::min(r.tiles_y - 1, static_cast<int>(std::floor(f.v_hi + 0.5f)) / kTile);
     }
-    z_lo = std::max(z_lo, min_depth_m);
-    z_hi = std::min(z_hi, max_depth_m);
+    const float z_lo = std::max(f.z_lo, min_depth_m), z_hi = std::min(f.z_hi, max_depth_m);
     for (int ty = ty0; ty <= ty1; ++ty) {
       for (int tx = tx0; tx <= tx1; ++tx) {
         const size_t i = size_t(ty) * r.tiles_x + tx;
@@ -93,9 +110,33 @@ DepthRanges ProjectBlocks(const TsdfVolume& volume, const PinholeCamera& camera,
         r.far_m[i] = std::max(r.far_m[i], z_hi);
       }
     }
-  });
+  };
+  if (!cull_regions) {
+    volume.ForEachBlock(project_block);
+    return r;
+  }
+  // A region out of view holds no block in view: its blocks lie in its box, whose
+  // projection (all corners in front of the camera: a convex set's image is the hull of its
+  // corners' images) and depth range contain theirs. The margins (a pixel, a millimetre)
+  // absorb float rounding, so that this only ever keeps more.
+  const float region_m = block_m * TsdfVolume::kRegionBlocks;
+  const Eigen::Vector3f rx = rotation.col(0) * region_m, ry = rotation.col(1) * region_m,
+                        rz = rotation.col(2) * region_m;
+  auto keep_region = [&](const Eigen::Vector3f& min_m, const Eigen::Vector3f&) {
+    const Footprint f = Project(camera, rotation * min_m + translation, rx, ry, rz);
+    if (f.z_hi < min_depth_m - 1e-3f || f.z_lo > max_depth_m + 1e-3f) return false;
+    if (f.straddles) return true;
+    return !(f.u_hi < -1.5f || f.v_hi < -1.5f || f.u_lo > camera.width + 0.5f || f.v_lo > camera.height + 0.5f);
+  };
+  volume.ForEachBlockInRegions(keep_region, project_block);
   return r;
 }
+
+}  // namespace internal
+
+namespace {
+
+using internal::DepthRanges;
 
 // What every ray of one Raycast() call shares.
 struct RayMarch {
@@ -201,9 +242,9 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
   if (options.with_colour) map.colours.assign(map.points.size(), Rgb8::Zero());
   if (camera.width <= 0 || camera.height <= 0 || volume.NumBlocks() == 0) return map;
 
-  const DepthRanges ranges = ProjectBlocks(volume, camera, world_from_camera,
-                                           static_cast<float>(options.min_depth_m),
-                                           static_cast<float>(options.max_depth_m));
+  const DepthRanges ranges = internal::ProjectBlocks(volume, camera, world_from_camera,
+                                                     static_cast<float>(options.min_depth_m),
+                                                     static_cast<float>(options.max_depth_m), true);
   RayMarch march;
   march.rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
   march.origin = world_from_camera.translation.cast<float>();

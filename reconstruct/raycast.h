@@ -5,6 +5,7 @@
 // for laying temperature onto the model.
 
 #include <string>
+#include <vector>
 
 #include "core/transform.h"
 #include "reconstruct/camera_maps.h"
@@ -36,5 +37,23 @@ struct RaycastOptions {
 // normal where the 32 voxels of NormalAt are not all observed (rim of the observed surface).
 PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
                  const core::Rigid3d& world_from_camera, const RaycastOptions& options);
+
+namespace internal {
+
+// The depth ranges rays are marched over (raycast.cc), exposed for tests: per tile of
+// tile × tile pixels (row-major, tiles_x × tiles_y), the nearest and farthest depth (m, along
+// the optical axis, clamped to [min_depth_m, max_depth_m]) of the allocated blocks whose
+// projection covers it; near > far where none does. With cull_regions, only the blocks of
+// regions in view are projected (TsdfVolume::ForEachBlockInRegions): the same ranges at a
+// cost independent of the map's size outside the view.
+struct DepthRanges {
+  int tile = 0, tiles_x = 0, tiles_y = 0;
+  std::vector<float> near_m, far_m;
+};
+DepthRanges ProjectBlocks(const TsdfVolume& volume, const PinholeCamera& camera,
+                          const core::Rigid3d& world_from_camera, float min_depth_m, float max_depth_m,
+                          bool cull_regions);
+
+}  // namespace internal
 
 }  // namespace hw::reconstruct

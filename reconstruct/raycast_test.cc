@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -234,6 +235,44 @@ TEST(Raycast, ColourAndThreadCounts) {
     }
   }
   EXPECT_GT(painted, 0.9 * one.NumValid());
+}
+
+// Projecting only the blocks of regions in view gives the very same depth ranges as
+// projecting every block: blocks scattered all around the camera (behind it, beside it,
+// straddling its plane, beyond both depth limits), seen from several poses.
+TEST(Raycast, RegionCullingKeepsEveryBlockInView) {
+  const PinholeCamera camera = SmallCamera();
+  TsdfVolume volume(SmallOptions());  // 8 cm blocks, 64 cm regions
+  std::mt19937 random(7);
+  std::uniform_int_distribution<int> coordinate(-60, 60);  // ±4.8 m
+  for (int i = 0; i < 20000; ++i) {
+    volume.GetOrCreateBlock(BlockKey(coordinate(random), coordinate(random), coordinate(random)));
+  }
+  const core::Rigid3d poses[] = {core::Rigid3d::Identity(), LookAt({0.3, -0.2, 0.1}, {1, 0.5, 2}),
+                                 LookAt({-1, 0.5, 0.3}, {-1.2, 0.4, -1}), LookAt({0.05, 0.6, 0}, {0, 3, 0.2})};
+  for (const core::Rigid3d& pose : poses) {
+    const auto all = internal::ProjectBlocks(volume, camera, pose, 0.3f, 4.0f, false);
+    const auto culled = internal::ProjectBlocks(volume, camera, pose, 0.3f, 4.0f, true);
+    ASSERT_EQ(all.near_m.size(), culled.near_m.size());
+    int covered = 0;
+    for (size_t i = 0; i < all.near_m.size(); ++i) {
+      EXPECT_EQ(all.near_m[i], culled.near_m[i]) << i;
+      EXPECT_EQ(all.far_m[i], culled.far_m[i]) << i;
+      covered += all.near_m[i] <= all.far_m[i];
+    }
+    EXPECT_GT(covered, 0.9 * static_cast<double>(all.near_m.size()));  // the cloud fills the view
+  }
+  // Blocks created after a call (here in a new region) are projected by the next one.
+  TsdfVolume grown(SmallOptions());
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  grown.GetOrCreateBlock(BlockKey(0, 0, 20));  // 1.6 m ahead
+  const auto before = internal::ProjectBlocks(grown, camera, pose, 0.3f, 4.0f, true);
+  grown.GetOrCreateBlock(BlockKey(0, 0, 10));  // 0.8 m ahead, in front of it
+  const auto after = internal::ProjectBlocks(grown, camera, pose, 0.3f, 4.0f, true);
+  const auto expected = internal::ProjectBlocks(grown, camera, pose, 0.3f, 4.0f, false);
+  EXPECT_NE(before.near_m, after.near_m);
+  EXPECT_EQ(after.near_m, expected.near_m);
+  EXPECT_EQ(after.far_m, expected.far_m);
 }
 
 TEST(RaycastOptions, CheckNamesTheField) {

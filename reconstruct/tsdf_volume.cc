@@ -2,6 +2,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <mutex>
 
 #include "reconstruct/option_check.h"
 #include "reconstruct/tsdf_volume_impl.h"
@@ -28,7 +29,18 @@ std::string TsdfOptions::Check() const {
 using internal::KeyInRange;
 using internal::PackKey;
 
-TsdfVolume::TsdfVolume(const TsdfOptions& options) : options_(options), impl_(std::make_unique<Impl>()) {
+// Region key → the blocks in it, in creation order; extended by ForEachBlockInRegions with
+// the blocks created since its last call (blocks are only ever appended to Impl::blocks).
+struct TsdfVolume::RegionIndex {
+  std::mutex mutex;      // const callers on several threads share the lazy update
+  size_t num_indexed = 0;  // Impl::blocks[0, num_indexed) are in `blocks`
+  absl::flat_hash_map<uint64_t, int32_t> slot;  // packed region key → index in keys/blocks
+  std::vector<Eigen::Vector3i> keys;
+  std::vector<std::vector<const VoxelBlock*>> blocks;
+};
+
+TsdfVolume::TsdfVolume(const TsdfOptions& options)
+    : options_(options), impl_(std::make_unique<Impl>()), regions_(std::make_unique<RegionIndex>()) {
   assert(options.Check().empty());
 }
 TsdfVolume::~TsdfVolume() = default;
@@ -88,13 +100,35 @@ TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
 
 TsdfSampler::Status TsdfSampler::SampleAcrossBlocks(int ix, int iy, int iz, float fx, float fy, float fz,
                                                     float& sdf) {
+  // The cell's lowest corner is in block k and at voxel l of it; per axis the upper corner
+  // is in the next block only when l is the block's last voxel. Each distinct block is
+  // looked up once (two, four or eight of them), not once per corner.
   const int m = kBlockSide - 1;
+  const int kx = ix >> kBlockShift, ky = iy >> kBlockShift, kz = iz >> kBlockShift;
+  const int lx = ix & m, ly = iy & m, lz = iz & m;
+  const int nx = lx == m, ny = ly == m, nz = lz == m;
+  const VoxelBlock* b[2][2][2];  // [z][y][x]: 0 the lowest corner's block, 1 the next one
+  for (int z = 0; z <= 1; ++z) {
+    for (int y = 0; y <= 1; ++y) {
+      for (int x = 0; x <= 1; ++x) {
+        const int dx = x & nx, dy = y & ny, dz = z & nz;
+        if ((dx != x) | (dy != y) | (dz != z)) {
+          b[z][y][x] = b[dz][dy][dx];  // the block of a corner already looked up
+        } else {
+          b[z][y][x] = Block(kx + dx, ky + dy, kz + dz);
+        }
+      }
+    }
+  }
+  const int ox[2] = {lx, (lx + 1) & m};
+  const int oy[2] = {kBlockSide * ly, kBlockSide * ((ly + 1) & m)};
+  const int oz[2] = {kBlockSide * kBlockSide * lz, kBlockSide * kBlockSide * ((lz + 1) & m)};
   float s[8];
   for (int c = 0; c < 8; ++c) {
-    const int x = ix + (c & 1), y = iy + ((c >> 1) & 1), z = iz + (c >> 2);
-    const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
-    if (b == nullptr) return Status::kUnobserved;
-    const Voxel& v = b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
+    const int x = c & 1, y = (c >> 1) & 1, z = c >> 2;
+    const VoxelBlock* block = b[z][y][x];
+    if (block == nullptr) return Status::kUnobserved;
+    const Voxel& v = block->voxels[ox[x] + oy[y] + oz[z]];
     if (!(v.weight > 0)) return Status::kUnobserved;
     s[c] = v.sdf;
   }
@@ -214,6 +248,31 @@ size_t TsdfVolume::MemoryBytes() const {
 
 void TsdfVolume::ForEachBlock(const std::function<void(const VoxelBlock&)>& f) const {
   for (const auto& block : impl_->blocks) f(*block);
+}
+
+void TsdfVolume::ForEachBlockInRegions(
+    const std::function<bool(const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m)>& keep_region,
+    const std::function<void(const VoxelBlock&)>& f) const {
+  static_assert(kRegionBlocks == 8);  // region key = block key >> 3
+  RegionIndex& r = *regions_;
+  const std::lock_guard<std::mutex> lock(r.mutex);
+  for (; r.num_indexed < impl_->blocks.size(); ++r.num_indexed) {
+    const VoxelBlock* block = impl_->blocks[r.num_indexed].get();
+    const Eigen::Vector3i key(block->key.x() >> 3, block->key.y() >> 3, block->key.z() >> 3);
+    const auto [it, inserted] = r.slot.try_emplace(PackKey(key.x(), key.y(), key.z()),
+                                                   static_cast<int32_t>(r.keys.size()));
+    if (inserted) {
+      r.keys.push_back(key);
+      r.blocks.emplace_back();
+    }
+    r.blocks[it->second].push_back(block);
+  }
+  const float region_m = voxel_size_m() * kBlockSide * kRegionBlocks;
+  for (size_t i = 0; i < r.keys.size(); ++i) {
+    const Eigen::Vector3f min_m = r.keys[i].cast<float>() * region_m;
+    if (!keep_region(min_m, min_m.array() + region_m)) continue;
+    for (const VoxelBlock* block : r.blocks[i]) f(*block);
+  }
 }
 
 void TsdfVolume::Bounds(Eigen::Vector3f& min_m, Eigen::Vector3f& max_m) const {

@@ -149,10 +149,25 @@ class TsdfVolume {
   // Axis-aligned bounds of the allocated blocks, world frame (metres); zero when empty.
   void Bounds(Eigen::Vector3f& min_m, Eigen::Vector3f& max_m) const;
 
+  // Blocks are grouped in regions: world-aligned cubes of kRegionBlocks³ blocks (32 cm at
+  // 5 mm voxels). Calls f on every block of each region whose box (min_m, max_m: world
+  // frame, metres; it holds every point of the region's blocks) passes keep_region, so that
+  // a view (raycasting) costs the regions of the map plus the blocks it keeps, not every
+  // block: the map grows ~kRegionBlocks² times faster than its region count. Order
+  // deterministic for a given history. The region index is brought up to date on the call
+  // (blocks created since the last call are added): not thread-safe with Integrate, as
+  // every call here.
+  static constexpr int kRegionBlocks = 8;
+  void ForEachBlockInRegions(
+      const std::function<bool(const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m)>& keep_region,
+      const std::function<void(const VoxelBlock&)>& f) const;
+
  private:
   struct Impl;
+  struct RegionIndex;
   TsdfOptions options_;
   std::unique_ptr<Impl> impl_;
+  mutable std::unique_ptr<RegionIndex> regions_;  // built lazily by ForEachBlockInRegions
 };
 
 // Fast sampling of a volume for many nearby queries (a ray, a mesh, a thermal image): it

@@ -146,6 +146,37 @@ TEST(TsdfStorage, BoundsAndMemory) {
   EXPECT_EQ(n, 2);
 }
 
+// Every block is reported once, with its region's box holding it; regions failing the test
+// hide exactly their blocks; blocks created between calls are indexed.
+TEST(TsdfStorage, ForEachBlockInRegions) {
+  TsdfVolume volume(SmallOptions());  // 8 cm blocks, 64 cm regions
+  const BlockKey keys[] = {{0, 0, 0}, {7, 7, 7}, {8, 0, 0}, {-1, 0, 0}, {-8, -9, 3}, {3, 4, 15}};
+  for (const BlockKey& k : keys) volume.GetOrCreateBlock(k);
+  std::vector<BlockKey> seen;
+  const float block_m = 0.08f;
+  volume.ForEachBlockInRegions(
+      [&](const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m) {
+        EXPECT_NEAR((max_m - min_m).maxCoeff(), 8 * block_m, 1e-6);
+        EXPECT_NEAR((max_m - min_m).minCoeff(), 8 * block_m, 1e-6);
+        return true;
+      },
+      [&](const VoxelBlock& b) { seen.push_back(b.key); });
+  ASSERT_EQ(seen.size(), std::size(keys));
+  for (const BlockKey& k : keys) EXPECT_EQ(std::count(seen.begin(), seen.end(), k), 1) << k.transpose();
+  // Keep only the region of (0, 0, 0): blocks 0…7 on each axis, box [0, 0.64) m.
+  auto origin_only = [](const Eigen::Vector3f& min_m, const Eigen::Vector3f&) {
+    return min_m.norm() < 1e-6f;
+  };
+  seen.clear();
+  volume.ForEachBlockInRegions(origin_only, [&](const VoxelBlock& b) { seen.push_back(b.key); });
+  EXPECT_EQ(seen, (std::vector<BlockKey>{{0, 0, 0}, {7, 7, 7}}));
+  volume.GetOrCreateBlock(BlockKey(2, 5, 1));
+  volume.GetOrCreateBlock(BlockKey(-2, 5, 1));
+  seen.clear();
+  volume.ForEachBlockInRegions(origin_only, [&](const VoxelBlock& b) { seen.push_back(b.key); });
+  EXPECT_EQ(seen, (std::vector<BlockKey>{{0, 0, 0}, {7, 7, 7}, {2, 5, 1}}));
+}
+
 TEST(TsdfOptions, CheckNamesTheField) {
   TsdfOptions o;
   EXPECT_EQ(o.Check(), "");
