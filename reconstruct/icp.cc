@@ -4,6 +4,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -86,16 +87,59 @@ struct Pass {
   float photometric_weight = 0;
 };
 
-// Adds w x xᵀ (x = [J; r; 0]) to a row's 7×8 block: rows 0–3 need columns 0–7, rows 4–6 only
-// columns 4–7 (the upper triangle and column 6 are read). Fixed trip counts: vectorised.
-inline void AddTerm(float (&acc)[7][8], const float (&x_aug)[8], float w) {
-  for (int a = 0; a < 4; ++a) {
-    const float w_xa = w * x_aug[a];
-    for (int b = 0; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
+// The terms of one image row's normal equations, as a structure of arrays (one column per
+// Jacobian entry, then the residual and the Huber weight): association fills it point by
+// point, SumTerms then adds w x xᵀ over all of them eight at a time.
+struct TermRows {
+  static constexpr int kColumns = 8;  // J (6), r, w
+  std::vector<float> columns[kColumns];
+  int size = 0;
+
+  explicit TermRows(int capacity) {
+    // Rounded up to whole groups of eight, which SumTerms reads.
+    for (auto& c : columns) c.resize(size_t(capacity + 8));
   }
-  for (int a = 4; a < 7; ++a) {
-    const float w_xa = w * x_aug[a];
-    for (int b = 4; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
+};
+
+using Float8 = float __attribute__((vector_size(32)));
+
+// Adds Σ w x xᵀ (x = [J; r]) of the first `rows.size` terms to the upper triangle `ata`
+// (row-major, 21) and to `atb` (6): eight terms at a time in float lanes (each lane sums a
+// few hundred terms at most), the lanes added in double. Pads rows to a multiple of eight
+// with zero weights. Cloned for AVX-512 and AVX2 (more and wider registers: the 27 sums stay
+// in registers); every clone adds in the same order, so the results are the same.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void SumTerms(
+    TermRows& rows, double* ata, double* atb) {
+  const int n = rows.size;
+  const int padded = (n + 7) / 8 * 8;
+  for (auto& c : rows.columns) std::fill(c.begin() + n, c.begin() + padded, 0.0f);
+  Float8 sums[27] = {};
+  const float* col[TermRows::kColumns];
+  for (int c = 0; c < TermRows::kColumns; ++c) col[c] = rows.columns[c].data();
+  for (int i = 0; i < padded; i += 8) {
+    Float8 x[7];
+    for (int c = 0; c < 7; ++c) std::memcpy(&x[c], col[c] + i, sizeof(Float8));
+    Float8 w;
+    std::memcpy(&w, col[7] + i, sizeof(Float8));
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      const Float8 w_xa = w * x[a];
+      for (int b = a; b < 7; ++b) sums[k++] += w_xa * x[b];
+    }
+  }
+  // sums: for each a, columns b = a..5 of the triangle, then b = 6 (the right-hand side).
+  int k = 0, t = 0;
+  for (int a = 0; a < 6; ++a) {
+    for (int b = a; b < 7; ++b) {
+      double s = 0;
+      for (int lane = 0; lane < 8; ++lane) s += double(sums[k][lane]);
+      if (b < 6) {
+        ata[t++] += s;
+      } else {
+        atb[a] += s;
+      }
+      ++k;
+    }
   }
 }
 
@@ -108,21 +152,43 @@ inline float HuberWeight(float r, float k) {
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
 
 // Associates and accumulates rows [y0, y1) of the live map.
-Sums AccumulateRows(const Pass& pass, int y0, int y1) {
+Sums AccumulateRows(const Pass& pass, int y0, int y1, TermRows& terms) {
   const PointMap& live = *pass.live;
   const PointMap& model = *pass.model;
-  const PinholeCamera& cam = pass.model_camera;
-  const float* R = pass.world_from_live.r;
-  const float* T = pass.world_from_live.t;
-  const float* M = pass.model_from_world.r;
-  const float* Mt = pass.model_from_world.t;
+  // Local copies of everything the loop reads in float: the terms it stores are floats too,
+  // and the compiler would otherwise reload every value the stores might have changed.
+  const PinholeCamera cam = pass.model_camera;
+  float R[9], T[3], M[9], Mt[3], MR[9];
+  std::copy_n(pass.world_from_live.r, 9, R);
+  std::copy_n(pass.world_from_live.t, 3, T);
+  std::copy_n(pass.model_from_world.r, 9, M);
+  std::copy_n(pass.model_from_world.t, 3, Mt);
+  std::copy_n(pass.model_from_live_r, 9, MR);
+  const float max_distance_sq = pass.max_distance_sq, min_normal_cos = pass.min_normal_cos;
+  const float huber = pass.huber, lambda = pass.photometric_weight;
+  const float* live_intensity = pass.live_intensity;
+  const float* model_intensity = pass.model_intensity;
   const float u_max = cam.width - 0.5f, v_max = cam.height - 0.5f;
+  const float* model_points = model.points.data()->data();
+  const float* model_normals = model.normals.data()->data();
+  float* columns[TermRows::kColumns];
+  for (int c = 0; c < TermRows::kColumns; ++c) columns[c] = terms.columns[c].data();
+  int n_terms = 0;
+  // Stores a term at the end of the row's terms; the caller counts it in when it is one.
+  auto store = [&](float j0, float j1, float j2, float j3, float j4, float j5, float r, float w) {
+    columns[0][n_terms] = j0;
+    columns[1][n_terms] = j1;
+    columns[2][n_terms] = j2;
+    columns[3][n_terms] = j3;
+    columns[4][n_terms] = j4;
+    columns[5][n_terms] = j5;
+    columns[6][n_terms] = r;
+    columns[7][n_terms] = w;
+  };
   Sums sums;
   for (int y = y0; y < y1; ++y) {
-    // Float sums over one row (at most a few thousand terms), added in double per row:
-    // acc[a][b] = Σ w x_a x_b with x = [J; r; 0], a 7×8 block that the compiler turns into
-    // 4-float vector operations (only the upper triangle and column 6 are read).
-    alignas(16) float acc[7][8] = {};
+    // The row's terms are collected, then summed in float lanes and added in double per row.
+    n_terms = 0;
     float sum_r_sq = 0;
     int inliers = 0, valid = 0;
     const size_t row = live.Index(0, y);
@@ -140,49 +206,48 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
       const float mx = M[0] * wx + M[1] * wy + M[2] * wz + Mt[0];
       const float my = M[3] * wx + M[4] * wy + M[5] * wz + Mt[1];
       const float mz = M[6] * wx + M[7] * wy + M[8] * wz + Mt[2];
-      if (!(mz > 0)) continue;
+      // Branch-free from here: whether a point pairs up is data (edges, holes, the gates), so
+      // a branch per gate mispredicts often. Every candidate's term is computed and stored;
+      // only the inliers advance the count, the others are overwritten by the next.
       const float inv_z = 1.0f / mz;
       const float u = cam.fx * mx * inv_z + cam.cx;
       const float v = cam.fy * my * inv_z + cam.cy;
       // Rounding to the nearest pixel; the range test also rejects NaN and huge values.
-      if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
-      const size_t j = model.Index(static_cast<int>(u + 0.5f), static_cast<int>(v + 0.5f));
-      const float* nm = model.normals[j].data();
-      if (std::isnan(nm[0])) continue;
-      const float* q = model.points[j].data();
+      const bool in_image = (mz > 0) & (u > -0.5f) & (v > -0.5f) & (u < u_max) & (v < v_max);
+      // Outside the image pixel (0, 0) stands in (a valid address); its term is dropped.
+      const float us = in_image ? u : 0.0f, vs = in_image ? v : 0.0f;
+      const size_t j = model.Index(static_cast<int>(us + 0.5f), static_cast<int>(vs + 0.5f));
+      const float* nm = model_normals + 3 * j;
+      const float* q = model_points + 3 * j;
       const float dx = wx - q[0], dy = wy - q[1], dz = wz - q[2];
-      if (dx * dx + dy * dy + dz * dz > pass.max_distance_sq) continue;
       // The model normal in the live camera frame, n_c = Rᵀ n_model: the angle gate compares
       // it with the live normal there, and it is the Jacobian's translation part.
       const float ncx = R[0] * nm[0] + R[3] * nm[1] + R[6] * nm[2];
       const float ncy = R[1] * nm[0] + R[4] * nm[1] + R[7] * nm[2];
       const float ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
-      if (ncx * n[0] + ncy * n[1] + ncz * n[2] < pass.min_normal_cos) continue;
+      // A model pixel without a normal (NaN) fails both gates.
+      const bool inlier = in_image & (dx * dx + dy * dy + dz * dz <= max_distance_sq) &
+                          (ncx * n[0] + ncy * n[1] + ncz * n[2] >= min_normal_cos);
       const float r = nm[0] * dx + nm[1] * dy + nm[2] * dz;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
       // dr/dω = p × n_c, dr/dv = n_c.
-      const float x_aug[8] = {p[1] * ncz - p[2] * ncy,
-                              p[2] * ncx - p[0] * ncz,
-                              p[0] * ncy - p[1] * ncx,
-                              ncx,
-                              ncy,
-                              ncz,
-                              r,
-                              0.0f};
-      AddTerm(acc, x_aug, HuberWeight(r, pass.huber));
-      sum_r_sq += r * r;
-      ++inliers;
-      if (pass.live_intensity != nullptr) {
+      store(p[1] * ncz - p[2] * ncy, p[2] * ncx - p[0] * ncz, p[0] * ncy - p[1] * ncx, ncx, ncy,
+           ncz, r, HuberWeight(r, huber));
+      n_terms += inlier;
+      sum_r_sq += inlier ? r * r : 0.0f;
+      inliers += inlier;
+      if (live_intensity != nullptr) {
         // Photometric residual of this pair: the model's grey level, bilinear at the
         // projected pixel, minus the live one; weighted into metres by photometric_weight.
-        const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
-        if (u0 < 0 || v0 < 0 || u0 + 1 >= cam.width || v0 + 1 >= cam.height) continue;
-        const float* g0 = pass.model_intensity + size_t(v0) * cam.width + u0;
+        const int u0 = static_cast<int>(std::floor(us)), v0 = static_cast<int>(std::floor(vs));
+        const bool in_patch =
+            inlier & (u0 >= 0) & (v0 >= 0) & (u0 + 1 < cam.width) & (v0 + 1 < cam.height);
+        const float* g0 = model_intensity + (in_patch ? size_t(v0) * cam.width + u0 : 0);
         const float* g1 = g0 + cam.width;
         const float i00 = g0[0], i10 = g0[1], i01 = g1[0], i11 = g1[1];
-        const float live_i = pass.live_intensity[row + x];
-        if (std::isnan(i00 + i10 + i01 + i11 + live_i)) continue;
-        const float fu = u - u0, fv = v - v0;
+        const float live_i = live_intensity[row + x];
+        const bool photometric = in_patch & !std::isnan(i00 + i10 + i01 + i11 + live_i);
+        const float fu = us - u0, fv = vs - v0;
         const float model_i =
             (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
         // Gradient of the bilinear patch (per pixel), then d(grey)/d(p_model) through the
@@ -190,30 +255,19 @@ Sums AccumulateRows(const Pass& pass, int y0, int y1) {
         // the geometric one's form with g_c in place of n_c.
         const float gu = (1 - fv) * (i10 - i00) + fv * (i11 - i01);
         const float gv = (1 - fu) * (i01 - i00) + fu * (i11 - i10);
-        const float lambda = pass.photometric_weight;
         const float gmx = lambda * gu * cam.fx * inv_z, gmy = lambda * gv * cam.fy * inv_z;
         const float gmz = -(gmx * mx + gmy * my) * inv_z;
-        const float* MR = pass.model_from_live_r;
         const float gcx = MR[0] * gmx + MR[3] * gmy + MR[6] * gmz;
         const float gcy = MR[1] * gmx + MR[4] * gmy + MR[7] * gmz;
         const float gcz = MR[2] * gmx + MR[5] * gmy + MR[8] * gmz;
         const float ri = lambda * (model_i - live_i);
-        const float xi_aug[8] = {p[1] * gcz - p[2] * gcy,
-                                 p[2] * gcx - p[0] * gcz,
-                                 p[0] * gcy - p[1] * gcx,
-                                 gcx,
-                                 gcy,
-                                 gcz,
-                                 ri,
-                                 0.0f};
-        AddTerm(acc, xi_aug, HuberWeight(ri, pass.huber));
+        store(p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz, p[0] * gcy - p[1] * gcx, gcx, gcy,
+             gcz, ri, HuberWeight(ri, huber));
+        n_terms += photometric;
       }
     }
-    int k = 0;
-    for (int a = 0; a < 6; ++a) {
-      for (int b = a; b < 6; ++b) sums.ata[k++] += double(acc[a][b]);
-      sums.atb[a] += double(acc[a][6]);
-    }
+    terms.size = n_terms;
+    SumTerms(terms, sums.ata.data(), sums.atb.data());
     sums.sum_r_sq += double(sum_r_sq);
     sums.inliers += inliers;
     sums.valid += valid;
@@ -226,9 +280,10 @@ Sums Accumulate(const Pass& pass, int num_threads) {
   const int chunks = (pass.live->height + kChunkRows - 1) / kChunkRows;
   std::vector<Sums> partial(chunks);
   ForEachBand(chunks, num_threads, [&](int c0, int c1) {
+    TermRows terms(2 * pass.live->width);  // a geometric and a photometric term per pixel
     for (int c = c0; c < c1; ++c) {
-      partial[c] =
-          AccumulateRows(pass, c * kChunkRows, std::min(pass.live->height, (c + 1) * kChunkRows));
+      partial[c] = AccumulateRows(pass, c * kChunkRows,
+                                  std::min(pass.live->height, (c + 1) * kChunkRows), terms);
     }
   });
   Sums total;
