@@ -128,7 +128,7 @@ int Run(int argc, char** argv) {
       rgb_pinhole = rgb_undistorter.UndistortColour(rgb);
       const cv::Mat registered =
           rc::RegisterColour(undistorted, depth_undistorter.pinhole(), rgb_pinhole,
-                             rgb_undistorter.pinhole(), depth_from_rgb_now.Inverse());
+                             rgb_undistorter.pinhole(), depth_from_rgb_now.Inverse(), threads);
       pyramid = rc::BuildDepthPyramid(undistorted, depth_undistorter.pinhole(), o.depth, registered);
       best_prepare_cpu = std::min(best_prepare_cpu, CpuMs() - c0);
       best_prepare = std::min(best_prepare, Ms(t0, Clock::now()));

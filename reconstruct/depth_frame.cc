@@ -63,42 +63,50 @@ inline Float4 RangeWeight4(Float4 t_sq) {
   return a * a;
 }
 
-// Range limits: depths outside [min, max] (and NaN, inf, negatives) become 0.
-cv::Mat RangeLimited(const cv::Mat& depth_m, float min_m, float max_m) {
-  cv::Mat out(depth_m.size(), CV_32FC1);
-  for (int y = 0; y < depth_m.rows; ++y) {
-    const float* src = depth_m.ptr<float>(y);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < depth_m.cols; ++x) {
-      const float z = src[x];
-      dst[x] = (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
-    }
-  }
-  return out;
-}
-
-// Drops flying pixels: a valid pixel with a valid 4-neighbour more than `fraction` of its
-// depth away.
-cv::Mat EdgeCleaned(const cv::Mat& depth_m, float fraction, int num_threads) {
+// Range limits and flying pixels in one pass over the image: depths outside [min, max] (and
+// NaN, inf, negatives) become 0, and so does a valid pixel with a valid (range-limited)
+// 4-neighbour more than `fraction` of its depth away (fraction >= 1: none is dropped).
+cv::Mat RangeLimitedAndEdgeCleaned(const cv::Mat& depth_m, float min_m, float max_m,
+                                   float fraction, int num_threads) {
   cv::Mat out(depth_m.size(), CV_32FC1);
   const int w = depth_m.cols, h = depth_m.rows;
+  const bool clean = fraction < 1;
+  auto limited = [min_m, max_m](float z) {
+    return (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
+  };
   ForEachBand(h, num_threads, [&](int y0, int y1) {
+    std::vector<float> rows[3];  // range-limited rows y - 1, y, y + 1 (0 beyond the image)
+    for (auto& r : rows) r.assign(size_t(w), 0.0f);
+    auto load = [&](std::vector<float>& dst, int y) {
+      if (y < 0 || y >= h) {
+        std::fill(dst.begin(), dst.end(), 0.0f);
+        return;
+      }
+      const float* src = depth_m.ptr<float>(y);
+      for (int x = 0; x < w; ++x) dst[x] = limited(src[x]);
+    };
+    load(rows[0], y0 - 1);
+    load(rows[1], y0);
     for (int y = y0; y < y1; ++y) {
-      const float* row = depth_m.ptr<float>(y);
-      const float* up = y > 0 ? depth_m.ptr<float>(y - 1) : nullptr;
-      const float* down = y + 1 < h ? depth_m.ptr<float>(y + 1) : nullptr;
+      load(rows[2], y + 1);
+      const float* up = rows[0].data();
+      const float* row = rows[1].data();
+      const float* down = rows[2].data();
       float* dst = out.ptr<float>(y);
       for (int x = 0; x < w; ++x) {
         const float z = row[x];
         dst[x] = z;
-        if (z <= 0) continue;
+        if (z <= 0 || !clean) continue;
         const float limit = fraction * z;
+        // A missing neighbour (0, or beyond the border) never counts as a jump.
         auto jumps = [&](float n) { return n > 0 && std::abs(n - z) > limit; };
-        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) ||
-            (up != nullptr && jumps(up[x])) || (down != nullptr && jumps(down[x]))) {
+        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) || jumps(up[x]) ||
+            jumps(down[x])) {
           dst[x] = 0;
         }
       }
+      std::swap(rows[0], rows[1]);
+      std::swap(rows[1], rows[2]);
     }
   });
   return out;
@@ -293,30 +301,34 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
 }
 
 // Rec. 601 luma of an RGB image, in [0, 1].
-cv::Mat Grey(const cv::Mat& rgb) {
+cv::Mat Grey(const cv::Mat& rgb, int num_threads) {
   cv::Mat out(rgb.size(), CV_32FC1);
-  for (int y = 0; y < rgb.rows; ++y) {
-    const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < rgb.cols; ++x) {
-      dst[x] = (0.299f * src[3 * x] + 0.587f * src[3 * x + 1] + 0.114f * src[3 * x + 2]) *
-               (1.0f / 255.0f);
+  ForEachBand(rgb.rows, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < rgb.cols; ++x) {
+        dst[x] = (0.299f * src[3 * x] + 0.587f * src[3 * x + 1] + 0.114f * src[3 * x + 2]) *
+                 (1.0f / 255.0f);
+      }
     }
-  }
+  });
   return out;
 }
 
 // 2×2 block means.
-cv::Mat HalfIntensity(const cv::Mat& intensity) {
+cv::Mat HalfIntensity(const cv::Mat& intensity, int num_threads) {
   cv::Mat out(intensity.rows / 2, intensity.cols / 2, CV_32FC1);
-  for (int y = 0; y < out.rows; ++y) {
-    const float* top = intensity.ptr<float>(2 * y);
-    const float* bottom = intensity.ptr<float>(2 * y + 1);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      dst[x] = 0.25f * (top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1]);
+  ForEachBand(out.rows, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* top = intensity.ptr<float>(2 * y);
+      const float* bottom = intensity.ptr<float>(2 * y + 1);
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < out.cols; ++x) {
+        dst[x] = 0.25f * (top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1]);
+      }
     }
-  }
+  });
   return out;
 }
 
@@ -397,13 +409,10 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   assert(depth_m.type() == CV_32FC1);
   assert(depth_m.cols == camera.width && depth_m.rows == camera.height);
   DepthPyramid pyramid;
-  pyramid.raw_depth_m = RangeLimited(depth_m, static_cast<float>(options.min_depth_m),
-                                     static_cast<float>(options.max_depth_m));
   // A fraction of 1 keeps all (the header's contract), though |dz| > z is possible.
-  if (options.edge_jump_fraction < 1) {
-    pyramid.raw_depth_m = EdgeCleaned(
-        pyramid.raw_depth_m, static_cast<float>(options.edge_jump_fraction), options.num_threads);
-  }
+  pyramid.raw_depth_m = RangeLimitedAndEdgeCleaned(
+      depth_m, static_cast<float>(options.min_depth_m), static_cast<float>(options.max_depth_m),
+      static_cast<float>(options.edge_jump_fraction), options.num_threads);
   const float normal_jump = static_cast<float>(options.normal_max_jump_fraction);
   pyramid.levels.reserve(options.num_levels);
   DepthLevel level0;
@@ -414,7 +423,7 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   }
   if (!rgb.empty()) {
     assert(rgb.type() == CV_8UC3 && rgb.cols == camera.width && rgb.rows == camera.height);
-    level0.intensity = Grey(rgb);
+    level0.intensity = Grey(rgb, options.num_threads);
   }
   pyramid.levels.push_back(std::move(level0));
   for (int l = 1; l < options.num_levels; ++l) {
@@ -427,7 +436,7 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
     if (l >= options.first_map_level) {
       level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
     }
-    if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity);
+    if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity, options.num_threads);
     pyramid.levels.push_back(std::move(level));
   }
   return pyramid;
