@@ -37,30 +37,67 @@ inline float RangeWeight(float t_sq) {
   return a * a;
 }
 
-// Four floats at a time (GCC/Clang vector extensions: SSE on x86, NEON on ARM, scalar code
-// elsewhere): the bilateral's inner loop, which -O2 does not vectorise by itself.
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = std::int32_t __attribute__((vector_size(16)));
-inline Float4 Load(const float* p) {
-  Float4 v;
+// Eight floats at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
+// register in the AVX2 and AVX-512 clones of AddPairs): the bilateral's inner loop, which
+// -O2 does not vectorise by itself. The helpers are inlined into the clones: GCC's warning
+// about passing 32-byte vectors without AVX (an ABI between translation units, reported at
+// the end of the file) does not apply to them.
+#pragma GCC diagnostic ignored "-Wpsabi"
+using Float8 = float __attribute__((vector_size(32)));
+using Int8 = std::int32_t __attribute__((vector_size(32)));
+inline Float8 Load(const float* p) {
+  Float8 v;
   std::memcpy(&v, p, sizeof(v));
   return v;
 }
-inline void Store(float* p, Float4 v) { std::memcpy(p, &v, sizeof(v)); }
-inline Float4 Splat(float f) { return Float4{f, f, f, f}; }
+inline void Store(float* p, Float8 v) { std::memcpy(p, &v, sizeof(v)); }
+inline Float8 Splat(float f) { return Float8{f, f, f, f, f, f, f, f}; }
 // `v` where mask is all ones, else +0.
-inline Float4 Masked(Float4 v, Int4 mask) {
-  return reinterpret_cast<Float4>(reinterpret_cast<Int4>(v) & mask);
+inline Float8 Masked(Float8 v, Int8 mask) {
+  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & mask);
 }
 // RangeWeight, with t² clamped to the cutoff so that masked-off lanes stay finite.
-inline Float4 RangeWeight4(Float4 t_sq) {
-  const Float4 cutoff = Splat(kRangeCutoffSq);
-  const Float4 clamped = t_sq < cutoff ? t_sq : cutoff;
-  Float4 a = 1.0f - clamped * (1.0f / 32.0f);
+inline Float8 RangeWeight8(Float8 t_sq) {
+  const Float8 cutoff = Splat(kRangeCutoffSq);
+  const Float8 clamped = t_sq < cutoff ? t_sq : cutoff;
+  Float8 a = 1.0f - clamped * (1.0f / 32.0f);
   a *= a;
   a *= a;
   a *= a;
   return a * a;
+}
+
+// One window offset of the bilateral over pixels [x_begin, x_end) of a row: the pair of
+// neighbours a[x] and b[x] (mirror images through the centre c[x]) adds its weights and
+// weighted depths to sum_w and sum_wz when both are valid and within the range cutoff.
+// Every pixel gets the same operations in the same order whether it falls in a vector or
+// in the scalar tail, and in every clone: the result does not depend on the CPU.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void AddPairs(
+    const float* c, const float* a, const float* b, const float* inv_sigma, float weight,
+    int x_begin, int x_end, float* sum_w, float* sum_wz) {
+  const Float8 weight8 = Splat(weight);
+  int x = x_begin;
+  for (; x + 8 <= x_end; x += 8) {
+    const Float8 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
+    const Float8 inv = Load(inv_sigma + x);
+    const Float8 ta = (za - z) * inv, tb = (zb - z) * inv;
+    const Float8 ta_sq = ta * ta, tb_sq = tb * tb;
+    // Both valid and on this side of any edge, or neither counts.
+    const Int8 pair = (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
+    const Float8 wa = Masked(weight8 * RangeWeight8(ta_sq), pair);
+    const Float8 wb = Masked(weight8 * RangeWeight8(tb_sq), pair);
+    Store(sum_w + x, Load(sum_w + x) + wa + wb);
+    Store(sum_wz + x, Load(sum_wz + x) + wa * za + wb * zb);
+  }
+  for (; x < x_end; ++x) {
+    const float z = c[x], za = a[x], zb = b[x];
+    const float ta = (za - z) * inv_sigma[x], tb = (zb - z) * inv_sigma[x];
+    const float ta_sq = ta * ta, tb_sq = tb * tb;
+    if (!(za > 0 && zb > 0 && ta_sq < kRangeCutoffSq && tb_sq < kRangeCutoffSq)) continue;
+    const float wa = weight * RangeWeight(ta_sq), wb = weight * RangeWeight(tb_sq);
+    sum_w[x] = sum_w[x] + wa + wb;  // the vector loop's order of additions
+    sum_wz[x] = sum_wz[x] + wa * za + wb * zb;
+  }
 }
 
 // Range limits and flying pixels in one pass over the image: depths outside [min, max] (and
@@ -155,30 +192,8 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
         const float* a = depth_m.ptr<float>(y + o.dy) + o.dx;
         const float* b = depth_m.ptr<float>(y - o.dy) - o.dx;
         const int reach = std::abs(o.dx);
-        const Float4 weight4 = Splat(o.weight);
-        int x = reach;
-        for (; x + 4 <= w - reach; x += 4) {
-          const Float4 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
-          const Float4 inv = Load(inv_sigma.data() + x);
-          const Float4 ta = (za - z) * inv, tb = (zb - z) * inv;
-          const Float4 ta_sq = ta * ta, tb_sq = tb * tb;
-          // Both valid and on this side of any edge, or neither counts.
-          const Int4 pair =
-              (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
-          const Float4 wa = Masked(weight4 * RangeWeight4(ta_sq), pair);
-          const Float4 wb = Masked(weight4 * RangeWeight4(tb_sq), pair);
-          Store(sum_w.data() + x, Load(sum_w.data() + x) + wa + wb);
-          Store(sum_wz.data() + x, Load(sum_wz.data() + x) + wa * za + wb * zb);
-        }
-        for (; x < w - reach; ++x) {
-          const float z = c[x], za = a[x], zb = b[x];
-          const float ta = (za - z) * inv_sigma[x], tb = (zb - z) * inv_sigma[x];
-          const float ta_sq = ta * ta, tb_sq = tb * tb;
-          if (!(za > 0 && zb > 0 && ta_sq < kRangeCutoffSq && tb_sq < kRangeCutoffSq)) continue;
-          const float wa = o.weight * RangeWeight(ta_sq), wb = o.weight * RangeWeight(tb_sq);
-          sum_w[x] += wa + wb;
-          sum_wz[x] += wa * za + wb * zb;
-        }
+        AddPairs(c, a, b, inv_sigma.data(), o.weight, reach, w - reach, sum_w.data(),
+                 sum_wz.data());
       }
       float* dst = out.ptr<float>(y);
       for (int x = 0; x < w; ++x) dst[x] = c[x] > 0 ? sum_wz[x] / sum_w[x] : 0.0f;
