@@ -37,68 +37,113 @@ inline float RangeWeight(float t_sq) {
   return a * a;
 }
 
-// Four floats at a time (GCC/Clang vector extensions: SSE on x86, NEON on ARM, scalar code
-// elsewhere): the bilateral's inner loop, which -O2 does not vectorise by itself.
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = std::int32_t __attribute__((vector_size(16)));
-inline Float4 Load(const float* p) {
-  Float4 v;
+// Eight floats at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
+// register in the AVX2 and AVX-512 clones of AddPairs): the bilateral's inner loop, which
+// -O2 does not vectorise by itself. The helpers are inlined into the clones: GCC's warning
+// about passing 32-byte vectors without AVX (an ABI between translation units, reported at
+// the end of the file) does not apply to them.
+#pragma GCC diagnostic ignored "-Wpsabi"
+using Float8 = float __attribute__((vector_size(32)));
+using Int8 = std::int32_t __attribute__((vector_size(32)));
+inline Float8 Load(const float* p) {
+  Float8 v;
   std::memcpy(&v, p, sizeof(v));
   return v;
 }
-inline void Store(float* p, Float4 v) { std::memcpy(p, &v, sizeof(v)); }
-inline Float4 Splat(float f) { return Float4{f, f, f, f}; }
+inline void Store(float* p, Float8 v) { std::memcpy(p, &v, sizeof(v)); }
+inline Float8 Splat(float f) { return Float8{f, f, f, f, f, f, f, f}; }
 // `v` where mask is all ones, else +0.
-inline Float4 Masked(Float4 v, Int4 mask) {
-  return reinterpret_cast<Float4>(reinterpret_cast<Int4>(v) & mask);
+inline Float8 Masked(Float8 v, Int8 mask) {
+  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & mask);
 }
 // RangeWeight, with t² clamped to the cutoff so that masked-off lanes stay finite.
-inline Float4 RangeWeight4(Float4 t_sq) {
-  const Float4 cutoff = Splat(kRangeCutoffSq);
-  const Float4 clamped = t_sq < cutoff ? t_sq : cutoff;
-  Float4 a = 1.0f - clamped * (1.0f / 32.0f);
+inline Float8 RangeWeight8(Float8 t_sq) {
+  const Float8 cutoff = Splat(kRangeCutoffSq);
+  const Float8 clamped = t_sq < cutoff ? t_sq : cutoff;
+  Float8 a = 1.0f - clamped * (1.0f / 32.0f);
   a *= a;
   a *= a;
   a *= a;
   return a * a;
 }
 
-// Range limits: depths outside [min, max] (and NaN, inf, negatives) become 0.
-cv::Mat RangeLimited(const cv::Mat& depth_m, float min_m, float max_m) {
-  cv::Mat out(depth_m.size(), CV_32FC1);
-  for (int y = 0; y < depth_m.rows; ++y) {
-    const float* src = depth_m.ptr<float>(y);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < depth_m.cols; ++x) {
-      const float z = src[x];
-      dst[x] = (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
-    }
+// One window offset of the bilateral over pixels [x_begin, x_end) of a row: the pair of
+// neighbours a[x] and b[x] (mirror images through the centre c[x]) adds its weights and
+// weighted depths to sum_w and sum_wz when both are valid and within the range cutoff.
+// Every pixel gets the same operations in the same order whether it falls in a vector or
+// in the scalar tail, and in every clone: the result does not depend on the CPU.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void AddPairs(
+    const float* c, const float* a, const float* b, const float* inv_sigma, float weight,
+    int x_begin, int x_end, float* sum_w, float* sum_wz) {
+  const Float8 weight8 = Splat(weight);
+  int x = x_begin;
+  for (; x + 8 <= x_end; x += 8) {
+    const Float8 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
+    const Float8 inv = Load(inv_sigma + x);
+    const Float8 ta = (za - z) * inv, tb = (zb - z) * inv;
+    const Float8 ta_sq = ta * ta, tb_sq = tb * tb;
+    // Both valid and on this side of any edge, or neither counts.
+    const Int8 pair = (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
+    const Float8 wa = Masked(weight8 * RangeWeight8(ta_sq), pair);
+    const Float8 wb = Masked(weight8 * RangeWeight8(tb_sq), pair);
+    Store(sum_w + x, Load(sum_w + x) + wa + wb);
+    Store(sum_wz + x, Load(sum_wz + x) + wa * za + wb * zb);
   }
-  return out;
+  for (; x < x_end; ++x) {
+    const float z = c[x], za = a[x], zb = b[x];
+    const float ta = (za - z) * inv_sigma[x], tb = (zb - z) * inv_sigma[x];
+    const float ta_sq = ta * ta, tb_sq = tb * tb;
+    if (!(za > 0 && zb > 0 && ta_sq < kRangeCutoffSq && tb_sq < kRangeCutoffSq)) continue;
+    const float wa = weight * RangeWeight(ta_sq), wb = weight * RangeWeight(tb_sq);
+    sum_w[x] = sum_w[x] + wa + wb;  // the vector loop's order of additions
+    sum_wz[x] = sum_wz[x] + wa * za + wb * zb;
+  }
 }
 
-// Drops flying pixels: a valid pixel with a valid 4-neighbour more than `fraction` of its
-// depth away.
-cv::Mat EdgeCleaned(const cv::Mat& depth_m, float fraction, int num_threads) {
+// Range limits and flying pixels in one pass over the image: depths outside [min, max] (and
+// NaN, inf, negatives) become 0, and so does a valid pixel with a valid (range-limited)
+// 4-neighbour more than `fraction` of its depth away (fraction >= 1: none is dropped).
+cv::Mat RangeLimitedAndEdgeCleaned(const cv::Mat& depth_m, float min_m, float max_m,
+                                   float fraction, int num_threads) {
   cv::Mat out(depth_m.size(), CV_32FC1);
   const int w = depth_m.cols, h = depth_m.rows;
+  const bool clean = fraction < 1;
+  auto limited = [min_m, max_m](float z) {
+    return (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
+  };
   ForEachBand(h, num_threads, [&](int y0, int y1) {
+    std::vector<float> rows[3];  // range-limited rows y - 1, y, y + 1 (0 beyond the image)
+    for (auto& r : rows) r.assign(size_t(w), 0.0f);
+    auto load = [&](std::vector<float>& dst, int y) {
+      if (y < 0 || y >= h) {
+        std::fill(dst.begin(), dst.end(), 0.0f);
+        return;
+      }
+      const float* src = depth_m.ptr<float>(y);
+      for (int x = 0; x < w; ++x) dst[x] = limited(src[x]);
+    };
+    load(rows[0], y0 - 1);
+    load(rows[1], y0);
     for (int y = y0; y < y1; ++y) {
-      const float* row = depth_m.ptr<float>(y);
-      const float* up = y > 0 ? depth_m.ptr<float>(y - 1) : nullptr;
-      const float* down = y + 1 < h ? depth_m.ptr<float>(y + 1) : nullptr;
+      load(rows[2], y + 1);
+      const float* up = rows[0].data();
+      const float* row = rows[1].data();
+      const float* down = rows[2].data();
       float* dst = out.ptr<float>(y);
       for (int x = 0; x < w; ++x) {
         const float z = row[x];
         dst[x] = z;
-        if (z <= 0) continue;
+        if (z <= 0 || !clean) continue;
         const float limit = fraction * z;
+        // A missing neighbour (0, or beyond the border) never counts as a jump.
         auto jumps = [&](float n) { return n > 0 && std::abs(n - z) > limit; };
-        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) ||
-            (up != nullptr && jumps(up[x])) || (down != nullptr && jumps(down[x]))) {
+        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) || jumps(up[x]) ||
+            jumps(down[x])) {
           dst[x] = 0;
         }
       }
+      std::swap(rows[0], rows[1]);
+      std::swap(rows[1], rows[2]);
     }
   });
   return out;
@@ -147,30 +192,8 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
         const float* a = depth_m.ptr<float>(y + o.dy) + o.dx;
         const float* b = depth_m.ptr<float>(y - o.dy) - o.dx;
         const int reach = std::abs(o.dx);
-        const Float4 weight4 = Splat(o.weight);
-        int x = reach;
-        for (; x + 4 <= w - reach; x += 4) {
-          const Float4 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
-          const Float4 inv = Load(inv_sigma.data() + x);
-          const Float4 ta = (za - z) * inv, tb = (zb - z) * inv;
-          const Float4 ta_sq = ta * ta, tb_sq = tb * tb;
-          // Both valid and on this side of any edge, or neither counts.
-          const Int4 pair =
-              (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
-          const Float4 wa = Masked(weight4 * RangeWeight4(ta_sq), pair);
-          const Float4 wb = Masked(weight4 * RangeWeight4(tb_sq), pair);
-          Store(sum_w.data() + x, Load(sum_w.data() + x) + wa + wb);
-          Store(sum_wz.data() + x, Load(sum_wz.data() + x) + wa * za + wb * zb);
-        }
-        for (; x < w - reach; ++x) {
-          const float z = c[x], za = a[x], zb = b[x];
-          const float ta = (za - z) * inv_sigma[x], tb = (zb - z) * inv_sigma[x];
-          const float ta_sq = ta * ta, tb_sq = tb * tb;
-          if (!(za > 0 && zb > 0 && ta_sq < kRangeCutoffSq && tb_sq < kRangeCutoffSq)) continue;
-          const float wa = o.weight * RangeWeight(ta_sq), wb = o.weight * RangeWeight(tb_sq);
-          sum_w[x] += wa + wb;
-          sum_wz[x] += wa * za + wb * zb;
-        }
+        AddPairs(c, a, b, inv_sigma.data(), o.weight, reach, w - reach, sum_w.data(),
+                 sum_wz.data());
       }
       float* dst = out.ptr<float>(y);
       for (int x = 0; x < w; ++x) dst[x] = c[x] > 0 ? sum_wz[x] / sum_w[x] : 0.0f;
@@ -293,30 +316,34 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
 }
 
 // Rec. 601 luma of an RGB image, in [0, 1].
-cv::Mat Grey(const cv::Mat& rgb) {
+cv::Mat Grey(const cv::Mat& rgb, int num_threads) {
   cv::Mat out(rgb.size(), CV_32FC1);
-  for (int y = 0; y < rgb.rows; ++y) {
-    const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < rgb.cols; ++x) {
-      dst[x] = (0.299f * src[3 * x] + 0.587f * src[3 * x + 1] + 0.114f * src[3 * x + 2]) *
-               (1.0f / 255.0f);
+  ForEachBand(rgb.rows, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < rgb.cols; ++x) {
+        dst[x] = (0.299f * src[3 * x] + 0.587f * src[3 * x + 1] + 0.114f * src[3 * x + 2]) *
+                 (1.0f / 255.0f);
+      }
     }
-  }
+  });
   return out;
 }
 
 // 2×2 block means.
-cv::Mat HalfIntensity(const cv::Mat& intensity) {
+cv::Mat HalfIntensity(const cv::Mat& intensity, int num_threads) {
   cv::Mat out(intensity.rows / 2, intensity.cols / 2, CV_32FC1);
-  for (int y = 0; y < out.rows; ++y) {
-    const float* top = intensity.ptr<float>(2 * y);
-    const float* bottom = intensity.ptr<float>(2 * y + 1);
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      dst[x] = 0.25f * (top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1]);
+  ForEachBand(out.rows, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* top = intensity.ptr<float>(2 * y);
+      const float* bottom = intensity.ptr<float>(2 * y + 1);
+      float* dst = out.ptr<float>(y);
+      for (int x = 0; x < out.cols; ++x) {
+        dst[x] = 0.25f * (top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1]);
+      }
     }
-  }
+  });
   return out;
 }
 
@@ -397,13 +424,10 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   assert(depth_m.type() == CV_32FC1);
   assert(depth_m.cols == camera.width && depth_m.rows == camera.height);
   DepthPyramid pyramid;
-  pyramid.raw_depth_m = RangeLimited(depth_m, static_cast<float>(options.min_depth_m),
-                                     static_cast<float>(options.max_depth_m));
   // A fraction of 1 keeps all (the header's contract), though |dz| > z is possible.
-  if (options.edge_jump_fraction < 1) {
-    pyramid.raw_depth_m = EdgeCleaned(
-        pyramid.raw_depth_m, static_cast<float>(options.edge_jump_fraction), options.num_threads);
-  }
+  pyramid.raw_depth_m = RangeLimitedAndEdgeCleaned(
+      depth_m, static_cast<float>(options.min_depth_m), static_cast<float>(options.max_depth_m),
+      static_cast<float>(options.edge_jump_fraction), options.num_threads);
   const float normal_jump = static_cast<float>(options.normal_max_jump_fraction);
   pyramid.levels.reserve(options.num_levels);
   DepthLevel level0;
@@ -414,7 +438,7 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   }
   if (!rgb.empty()) {
     assert(rgb.type() == CV_8UC3 && rgb.cols == camera.width && rgb.rows == camera.height);
-    level0.intensity = Grey(rgb);
+    level0.intensity = Grey(rgb, options.num_threads);
   }
   pyramid.levels.push_back(std::move(level0));
   for (int l = 1; l < options.num_levels; ++l) {
@@ -427,7 +451,7 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
     if (l >= options.first_map_level) {
       level.map = MapOf(level.depth_m, level.camera, normal_jump, options.num_threads);
     }
-    if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity);
+    if (!above.intensity.empty()) level.intensity = HalfIntensity(above.intensity, options.num_threads);
     pyramid.levels.push_back(std::move(level));
   }
   return pyramid;

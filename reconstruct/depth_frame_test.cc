@@ -262,6 +262,41 @@ TEST(BuildDepthPyramid, BilateralReducesNoiseByTheSpatialKernelsFactor) {
   EXPECT_LT(expected, 0.3);  // the test means something: the filter removes > 70 % of the noise
 }
 
+// The bilateral runs eight pixels at a time with a scalar loop for the rest of each row;
+// every pixel must get the same result wherever it falls. Shifting a noisy image with holes
+// and a step by 3 columns (width 157: the groups of eight and the tail move over different
+// pixels) must shift the filtered image by 3 columns, bit for bit, away from the borders.
+TEST(BuildDepthPyramid, BilateralDoesNotDependOnWhereAPixelFallsInARow) {
+  const PinholeCamera camera = PinholeCamera::Of(core::CameraModel::Pinhole(157, 37, 140, 140));
+  const int shift = 3;
+  cv::Mat wide(camera.height, camera.width + shift, CV_32FC1);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.004f);
+  std::uniform_real_distribution<float> hole(0.0f, 1.0f);
+  for (int v = 0; v < wide.rows; ++v) {
+    for (int u = 0; u < wide.cols; ++u) {
+      const float z = (u < 70 ? 1.0f : 1.4f) + 0.002f * float(u) + noise(rng);
+      wide.at<float>(v, u) = hole(rng) < 0.05f ? 0.0f : z;
+    }
+  }
+  DepthFilterOptions options;
+  options.num_levels = 1;
+  const cv::Mat a = wide(cv::Rect(0, 0, camera.width, camera.height)).clone();
+  const cv::Mat b = wide(cv::Rect(shift, 0, camera.width, camera.height)).clone();
+  const cv::Mat fa = BuildDepthPyramid(a, camera, options).levels[0].depth_m;
+  const cv::Mat fb = BuildDepthPyramid(b, camera, options).levels[0].depth_m;
+  const int border = options.bilateral_radius_px + 1;  // the flying-pixel test reaches 1 px
+  int compared = 0, filtered = 0;
+  for (int v = border; v < camera.height - border; ++v) {
+    for (int u = border; u + shift < camera.width - border; ++u) {
+      ASSERT_EQ(fa.at<float>(v, u + shift), fb.at<float>(v, u)) << "pixel " << u << ", " << v;
+      ++compared;
+      filtered += fa.at<float>(v, u + shift) != a.at<float>(v, u + shift);
+    }
+  }
+  EXPECT_GT(filtered, compared / 2);  // the filter did change most pixels
+}
+
 TEST(BuildDepthPyramid, LevelsHalveTheImageAndTheCamera) {
   const PinholeCamera camera = SmallCamera();
   const cv::Mat depth = PlaneDepth(camera, {0, 0, 0.5f});

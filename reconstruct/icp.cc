@@ -4,6 +4,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -86,137 +87,210 @@ struct Pass {
   float photometric_weight = 0;
 };
 
-// Adds w x xᵀ (x = [J; r; 0]) to a row's 7×8 block: rows 0–3 need columns 0–7, rows 4–6 only
-// columns 4–7 (the upper triangle and column 6 are read). Fixed trip counts: vectorised.
-inline void AddTerm(float (&acc)[7][8], const float (&x_aug)[8], float w) {
-  for (int a = 0; a < 4; ++a) {
-    const float w_xa = w * x_aug[a];
-    for (int b = 0; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
-  }
-  for (int a = 4; a < 7; ++a) {
-    const float w_xa = w * x_aug[a];
-    for (int b = 4; b < 8; ++b) acc[a][b] += w_xa * x_aug[b];
-  }
+// Eight pixels at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
+// register in the AVX2 and AVX-512 clones below). The helpers are inlined into the clones:
+// the warning about passing 32-byte vectors without AVX (an ABI between translation units)
+// does not apply to them (GCC reports it at the end of the file: not popped).
+#pragma GCC diagnostic ignored "-Wpsabi"
+using Float8 = float __attribute__((vector_size(32)));
+using Int8 = std::int32_t __attribute__((vector_size(32)));
+
+inline Float8 Splat8(float f) { return Float8{f, f, f, f, f, f, f, f}; }
+// `v` where mask is all ones, else +0 (also where v is NaN).
+inline Float8 Masked8(Float8 v, Int8 mask) {
+  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & mask);
+}
+inline Float8 Select8(Int8 mask, Float8 a, Float8 b) {
+  return reinterpret_cast<Float8>((reinterpret_cast<Int8>(a) & mask) |
+                                  (reinterpret_cast<Int8>(b) & ~mask));
+}
+inline Float8 Abs8(Float8 v) {
+  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & (Int8{} + 0x7fffffff));
+}
+// Lanes are floor(v) for |v| < 2³¹ (conversion truncates towards zero).
+inline Int8 Floor8(Float8 v) {
+  const Int8 t = __builtin_convertvector(v, Int8);
+  return t + (__builtin_convertvector(t, Float8) > v);  // a true comparison is -1
+}
+inline Float8 HuberWeight8(Float8 r, float k) {
+  const Float8 abs_r = Abs8(r);
+  return Select8(abs_r <= k, Splat8(1.0f), k / abs_r);
 }
 
-inline float HuberWeight(float r, float k) {
-  const float abs_r = std::abs(r);
-  return abs_r <= k ? 1.0f : k / abs_r;
+// The 6×6 system's sums for one row, eight lanes each: Σ w J_a J_b (upper triangle, a ≤ b,
+// row-major, 21) then Σ w J_a r (6).
+struct RowSums8 {
+  Float8 s[27] = {};
+  // Adds the terms (J, r) with weights w (0 in lanes that are not terms; J and r finite there).
+  void Add(const Float8 (&j)[6], Float8 r, Float8 w) {
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      const Float8 w_ja = w * j[a];
+      for (int b = a; b < 6; ++b) s[k++] += w_ja * j[b];
+    }
+    for (int a = 0; a < 6; ++a) s[21 + a] += w * j[a] * r;
+  }
+};
+
+inline double LaneSum(Float8 v) {
+  double s = 0;
+  for (int lane = 0; lane < 8; ++lane) s += double(v[lane]);
+  return s;
 }
 
 // The hot loop reads point maps as packed float triples.
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
 
-// Associates and accumulates rows [y0, y1) of the live map.
-Sums AccumulateRows(const Pass& pass, int y0, int y1) {
+// Associates and accumulates rows [y0, y1) of the live map, eight pixels at a time: each
+// lane goes through the whole computation, and the association's gates (data: edges, holes,
+// outliers, which a branch per gate would mispredict) become masks that zero a lane's terms.
+// The gathers from the model (its pixel depends on the lane's point) are scalar loads. Sums
+// are in float lanes over a row (a few hundred terms per lane), added in double per row.
+// Cloned for AVX-512 and AVX2; every clone computes the same operations in the same order
+// (no contraction into FMA in ISO C++ mode), so the sums do not depend on the clone.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums AccumulateRows(
+    const Pass& pass, int y0, int y1) {
   const PointMap& live = *pass.live;
   const PointMap& model = *pass.model;
-  const PinholeCamera& cam = pass.model_camera;
-  const float* R = pass.world_from_live.r;
-  const float* T = pass.world_from_live.t;
-  const float* M = pass.model_from_world.r;
-  const float* Mt = pass.model_from_world.t;
+  const PinholeCamera cam = pass.model_camera;
+  float R[9], T[3], M[9], Mt[3], MR[9];
+  std::copy_n(pass.world_from_live.r, 9, R);
+  std::copy_n(pass.world_from_live.t, 3, T);
+  std::copy_n(pass.model_from_world.r, 9, M);
+  std::copy_n(pass.model_from_world.t, 3, Mt);
+  std::copy_n(pass.model_from_live_r, 9, MR);
+  const float max_distance_sq = pass.max_distance_sq, min_normal_cos = pass.min_normal_cos;
+  const float huber = pass.huber, lambda = pass.photometric_weight;
+  const float* live_intensity = pass.live_intensity;
+  const float* model_intensity = pass.model_intensity;
   const float u_max = cam.width - 0.5f, v_max = cam.height - 0.5f;
+  const float* model_points = model.points.data()->data();
+  const float* model_normals = model.normals.data()->data();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   Sums sums;
   for (int y = y0; y < y1; ++y) {
-    // Float sums over one row (at most a few thousand terms), added in double per row:
-    // acc[a][b] = Σ w x_a x_b with x = [J; r; 0], a 7×8 block that the compiler turns into
-    // 4-float vector operations (only the upper triangle and column 6 are read).
-    alignas(16) float acc[7][8] = {};
-    float sum_r_sq = 0;
-    int inliers = 0, valid = 0;
+    RowSums8 acc;
+    Float8 sum_r_sq = {};
+    Int8 inliers = {}, valid = {};
     const size_t row = live.Index(0, y);
     const float* points = live.points[row].data();
     const float* normals = live.normals[row].data();
-    for (int x = 0; x < live.width; ++x) {
-      const float* n = normals + 3 * x;
-      if (std::isnan(n[0])) continue;  // no normal (or no point)
-      ++valid;
-      const float* p = points + 3 * x;
+    for (int x0 = 0; x0 < live.width; x0 += 8) {
+      // The lanes' live points and normals (pixels past the row's end: no normal).
+      Float8 p[3], n[3];
+      for (int k = 0; k < 8; ++k) {
+        const bool inside = x0 + k < live.width;
+        for (int c = 0; c < 3; ++c) {
+          p[c][k] = inside ? points[3 * (x0 + k) + c] : 0.0f;
+          n[c][k] = inside ? normals[3 * (x0 + k) + c] : nan;
+        }
+      }
+      const Int8 has_normal = n[0] == n[0];  // not NaN
+      valid -= has_normal;
+      if (!(has_normal[0] | has_normal[1] | has_normal[2] | has_normal[3] | has_normal[4] |
+            has_normal[5] | has_normal[6] | has_normal[7])) {
+        continue;  // a hole: nothing to pair
+      }
+      // Lanes without a point compute on zeros and are masked out.
+      for (int c = 0; c < 3; ++c) p[c] = Masked8(p[c], has_normal);
       // The live point in the world, then in the model camera.
-      const float wx = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + T[0];
-      const float wy = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + T[1];
-      const float wz = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + T[2];
-      const float mx = M[0] * wx + M[1] * wy + M[2] * wz + Mt[0];
-      const float my = M[3] * wx + M[4] * wy + M[5] * wz + Mt[1];
-      const float mz = M[6] * wx + M[7] * wy + M[8] * wz + Mt[2];
-      if (!(mz > 0)) continue;
-      const float inv_z = 1.0f / mz;
-      const float u = cam.fx * mx * inv_z + cam.cx;
-      const float v = cam.fy * my * inv_z + cam.cy;
+      const Float8 wx = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + T[0];
+      const Float8 wy = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + T[1];
+      const Float8 wz = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + T[2];
+      const Float8 mx = M[0] * wx + M[1] * wy + M[2] * wz + Mt[0];
+      const Float8 my = M[3] * wx + M[4] * wy + M[5] * wz + Mt[1];
+      const Float8 mz = M[6] * wx + M[7] * wy + M[8] * wz + Mt[2];
+      const Float8 inv_z = 1.0f / mz;
+      const Float8 u = cam.fx * mx * inv_z + cam.cx;
+      const Float8 v = cam.fy * my * inv_z + cam.cy;
       // Rounding to the nearest pixel; the range test also rejects NaN and huge values.
-      if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
-      const size_t j = model.Index(static_cast<int>(u + 0.5f), static_cast<int>(v + 0.5f));
-      const float* nm = model.normals[j].data();
-      if (std::isnan(nm[0])) continue;
-      const float* q = model.points[j].data();
-      const float dx = wx - q[0], dy = wy - q[1], dz = wz - q[2];
-      if (dx * dx + dy * dy + dz * dz > pass.max_distance_sq) continue;
+      const Int8 in_image =
+          has_normal & (mz > 0) & (u > -0.5f) & (v > -0.5f) & (u < u_max) & (v < v_max);
+      // Outside the image pixel (0, 0) stands in (a valid address); its lane is masked out.
+      const Float8 us = Masked8(u, in_image), vs = Masked8(v, in_image);
+      Int8 ui = __builtin_convertvector(us + 0.5f, Int8);
+      Int8 vi = __builtin_convertvector(vs + 0.5f, Int8);
+      // u + 0.5 can round up to the width itself just below the limit.
+      ui = ui < cam.width - 1 ? ui : cam.width - 1;
+      vi = vi < cam.height - 1 ? vi : cam.height - 1;
+      const Int8 j = vi * cam.width + ui;
+      Float8 q[3], nm[3];
+      for (int k = 0; k < 8; ++k) {
+        const float* qk = model_points + 3 * size_t(j[k]);
+        const float* nk = model_normals + 3 * size_t(j[k]);
+        for (int c = 0; c < 3; ++c) {
+          q[c][k] = qk[c];
+          nm[c][k] = nk[c];
+        }
+      }
+      const Float8 dx = wx - q[0], dy = wy - q[1], dz = wz - q[2];
       // The model normal in the live camera frame, n_c = Rᵀ n_model: the angle gate compares
       // it with the live normal there, and it is the Jacobian's translation part.
-      const float ncx = R[0] * nm[0] + R[3] * nm[1] + R[6] * nm[2];
-      const float ncy = R[1] * nm[0] + R[4] * nm[1] + R[7] * nm[2];
-      const float ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
-      if (ncx * n[0] + ncy * n[1] + ncz * n[2] < pass.min_normal_cos) continue;
-      const float r = nm[0] * dx + nm[1] * dy + nm[2] * dz;
+      const Float8 ncx = R[0] * nm[0] + R[3] * nm[1] + R[6] * nm[2];
+      const Float8 ncy = R[1] * nm[0] + R[4] * nm[1] + R[7] * nm[2];
+      const Float8 ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
+      // A model pixel without a normal (NaN) fails both gates.
+      const Int8 inlier = in_image & (dx * dx + dy * dy + dz * dz <= max_distance_sq) &
+                          (ncx * n[0] + ncy * n[1] + ncz * n[2] >= min_normal_cos);
+      inliers -= inlier;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
-      // dr/dω = p × n_c, dr/dv = n_c.
-      const float x_aug[8] = {p[1] * ncz - p[2] * ncy,
-                              p[2] * ncx - p[0] * ncz,
-                              p[0] * ncy - p[1] * ncx,
-                              ncx,
-                              ncy,
-                              ncz,
-                              r,
-                              0.0f};
-      AddTerm(acc, x_aug, HuberWeight(r, pass.huber));
-      sum_r_sq += r * r;
-      ++inliers;
-      if (pass.live_intensity != nullptr) {
-        // Photometric residual of this pair: the model's grey level, bilinear at the
-        // projected pixel, minus the live one; weighted into metres by photometric_weight.
-        const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
-        if (u0 < 0 || v0 < 0 || u0 + 1 >= cam.width || v0 + 1 >= cam.height) continue;
-        const float* g0 = pass.model_intensity + size_t(v0) * cam.width + u0;
-        const float* g1 = g0 + cam.width;
-        const float i00 = g0[0], i10 = g0[1], i01 = g1[0], i11 = g1[1];
-        const float live_i = pass.live_intensity[row + x];
-        if (std::isnan(i00 + i10 + i01 + i11 + live_i)) continue;
-        const float fu = u - u0, fv = v - v0;
-        const float model_i =
-            (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
-        // Gradient of the bilinear patch (per pixel), then d(grey)/d(p_model) through the
-        // projection, then into the live camera frame (g_c = (M R)ᵀ g_m): the Jacobian has
-        // the geometric one's form with g_c in place of n_c.
-        const float gu = (1 - fv) * (i10 - i00) + fv * (i11 - i01);
-        const float gv = (1 - fu) * (i01 - i00) + fu * (i11 - i10);
-        const float lambda = pass.photometric_weight;
-        const float gmx = lambda * gu * cam.fx * inv_z, gmy = lambda * gv * cam.fy * inv_z;
-        const float gmz = -(gmx * mx + gmy * my) * inv_z;
-        const float* MR = pass.model_from_live_r;
-        const float gcx = MR[0] * gmx + MR[3] * gmy + MR[6] * gmz;
-        const float gcy = MR[1] * gmx + MR[4] * gmy + MR[7] * gmz;
-        const float gcz = MR[2] * gmx + MR[5] * gmy + MR[8] * gmz;
-        const float ri = lambda * (model_i - live_i);
-        const float xi_aug[8] = {p[1] * gcz - p[2] * gcy,
-                                 p[2] * gcx - p[0] * gcz,
-                                 p[0] * gcy - p[1] * gcx,
-                                 gcx,
-                                 gcy,
-                                 gcz,
-                                 ri,
-                                 0.0f};
-        AddTerm(acc, xi_aug, HuberWeight(ri, pass.huber));
+      // dr/dω = p × n_c, dr/dv = n_c. Masked: NaN in rejected lanes becomes 0.
+      const Float8 r = Masked8(nm[0] * dx + nm[1] * dy + nm[2] * dz, inlier);
+      {
+        const Float8 cx = Masked8(ncx, inlier), cy = Masked8(ncy, inlier),
+                     cz = Masked8(ncz, inlier);
+        const Float8 jac[6] = {p[1] * cz - p[2] * cy, p[2] * cx - p[0] * cz,
+                               p[0] * cy - p[1] * cx, cx, cy, cz};
+        acc.Add(jac, r, Masked8(HuberWeight8(r, huber), inlier));
+        sum_r_sq += r * r;
       }
+      if (live_intensity == nullptr) continue;
+      // Photometric residual of each pair: the model's grey level, bilinear at the projected
+      // pixel, minus the live one; weighted into metres by photometric_weight.
+      const Int8 u0 = Floor8(us), v0 = Floor8(vs);
+      Int8 in_patch = inlier & (u0 >= 0) & (v0 >= 0) & (u0 + 1 < cam.width) &
+                      (v0 + 1 < cam.height);
+      const Int8 g = (v0 & in_patch) * cam.width + (u0 & in_patch);
+      Float8 i00, i10, i01, i11, live_i;
+      for (int k = 0; k < 8; ++k) {
+        const float* g0 = model_intensity + size_t(g[k]);
+        i00[k] = g0[0];
+        i10[k] = g0[1];
+        i01[k] = g0[cam.width];
+        i11[k] = g0[cam.width + 1];
+        live_i[k] = x0 + k < live.width ? live_intensity[row + x0 + k] : nan;
+      }
+      const Float8 sum_i = i00 + i10 + i01 + i11 + live_i;
+      in_patch &= sum_i == sum_i;  // none NaN
+      const Float8 fu = us - __builtin_convertvector(u0, Float8);
+      const Float8 fv = vs - __builtin_convertvector(v0, Float8);
+      const Float8 model_i =
+          (1 - fv) * ((1 - fu) * i00 + fu * i10) + fv * ((1 - fu) * i01 + fu * i11);
+      // Gradient of the bilinear patch (per pixel), then d(grey)/d(p_model) through the
+      // projection, then into the live camera frame (g_c = (M R)ᵀ g_m): the Jacobian has the
+      // geometric one's form with g_c in place of n_c.
+      const Float8 gu = (1 - fv) * (i10 - i00) + fv * (i11 - i01);
+      const Float8 gv = (1 - fu) * (i01 - i00) + fu * (i11 - i10);
+      const Float8 gmx = lambda * gu * cam.fx * inv_z, gmy = lambda * gv * cam.fy * inv_z;
+      const Float8 gmz = -(gmx * mx + gmy * my) * inv_z;
+      const Float8 gcx = Masked8(MR[0] * gmx + MR[3] * gmy + MR[6] * gmz, in_patch);
+      const Float8 gcy = Masked8(MR[1] * gmx + MR[4] * gmy + MR[7] * gmz, in_patch);
+      const Float8 gcz = Masked8(MR[2] * gmx + MR[5] * gmy + MR[8] * gmz, in_patch);
+      const Float8 ri = Masked8(lambda * (model_i - live_i), in_patch);
+      const Float8 jac[6] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
+                             p[0] * gcy - p[1] * gcx, gcx, gcy, gcz};
+      acc.Add(jac, ri, Masked8(HuberWeight8(ri, huber), in_patch));
     }
     int k = 0;
     for (int a = 0; a < 6; ++a) {
-      for (int b = a; b < 6; ++b) sums.ata[k++] += double(acc[a][b]);
-      sums.atb[a] += double(acc[a][6]);
+      for (int b = a; b < 6; ++b, ++k) sums.ata[k] += LaneSum(acc.s[k]);
+      sums.atb[a] += LaneSum(acc.s[21 + a]);
     }
-    sums.sum_r_sq += double(sum_r_sq);
-    sums.inliers += inliers;
-    sums.valid += valid;
+    sums.sum_r_sq += LaneSum(sum_r_sq);
+    for (int lane = 0; lane < 8; ++lane) {
+      sums.inliers += inliers[lane];
+      sums.valid += valid[lane];
+    }
   }
   return sums;
 }
@@ -227,8 +301,8 @@ Sums Accumulate(const Pass& pass, int num_threads) {
   std::vector<Sums> partial(chunks);
   ForEachBand(chunks, num_threads, [&](int c0, int c1) {
     for (int c = c0; c < c1; ++c) {
-      partial[c] =
-          AccumulateRows(pass, c * kChunkRows, std::min(pass.live->height, (c + 1) * kChunkRows));
+      partial[c] = AccumulateRows(pass, c * kChunkRows,
+                                  std::min(pass.live->height, (c + 1) * kChunkRows));
     }
   });
   Sums total;

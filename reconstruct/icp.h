@@ -105,8 +105,9 @@ struct IcpResult {
 // paired with the model point at that pixel when it passes the gates, and the pose updated
 // by a Gauss-Newton step of the Huber-weighted point-to-plane error (linearised rotation,
 // applied on the right in the camera frame: world_from_camera · Exp(ξ)). Live points need a
-// normal (for the angle gate). The 6×6 system is summed over 8-row chunks in float, then in
-// double in row order: the result does not depend on num_threads. Checks, in this order:
+// normal (for the angle gate). The 6×6 system is summed per row in eight float lanes (eight
+// pixels at a time), then in double in row order: the result does not depend on num_threads
+// nor on the CPU's vector extensions. Checks, in this order:
 // too few inliers, condition, residual, jump. Never throws; failures are in status.
 IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
                        const core::Rigid3d& initial_world_from_camera, const IcpOptions& options);

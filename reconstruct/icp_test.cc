@@ -265,6 +265,67 @@ TEST(AlignToModel, ThreadCountDoesNotChangeTheResult) {
   EXPECT_EQ(a.information, b.information);
 }
 
+// The association runs eight pixels at a time; rows whose width is not a multiple of eight
+// end in a partial group. On a camera 157 px wide (levels 157, 78, 39: partial groups of 5,
+// 6 and 7), one pass at the finest level from the true pose must pair up the same pixels and
+// sum the same normal matrix as a plain per-pixel loop over the same maps (in double here:
+// the pass sums in float lanes, 1e-4 relative covers that rounding over ~15 000 terms).
+TEST(AlignToModel, OnePassMatchesAPerPixelLoopWithPartialGroups) {
+  const PinholeCamera camera = PinholeCamera::Of(core::CameraModel::Pinhole(157, 117, 140, 140));
+  const Scene scene = Scene::Corner();
+  const core::Rigid3d truth = Reference() * Motion();
+  const DepthPyramid live =
+      BuildDepthPyramid(scene.Depth(camera, truth), camera, DepthFilterOptions());
+  // The model seen from slightly elsewhere, so that some pixels fail the gates.
+  const core::Rigid3d model_pose = Reference();
+  const ModelPyramid model =
+      BuildModelPyramid(scene.Map(camera, model_pose), camera, model_pose, 3);
+  IcpOptions options;
+  options.iterations = {1, 0, 0};
+  const IcpResult result = AlignToModel(live, model, truth, options);
+
+  const PointMap& live_map = live.levels[0].map;
+  const PointMap& model_map = model.maps[0];
+  const Eigen::Matrix3d R = truth.rotation.toRotationMatrix();
+  const core::Rigid3d model_from_live = model_pose.Inverse() * truth;
+  const double gate = options.max_distance_m;  // level 0 is the coarsest level used
+  const double min_cos = std::cos(options.max_normal_angle_deg * kDeg);
+  int valid = 0, inliers = 0;
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int y = 0; y < live_map.height; ++y) {
+    for (int x = 0; x < live_map.width; ++x) {
+      const size_t i = live_map.Index(x, y);
+      if (!IsValid(live_map.normals[i])) continue;
+      ++valid;
+      const Eigen::Vector3d p = live_map.points[i].cast<double>();
+      const Eigen::Vector3d in_model = model_from_live * p;
+      if (!(in_model.z() > 0)) continue;
+      const double u = double(camera.fx) * in_model.x() / in_model.z() + double(camera.cx);
+      const double v = double(camera.fy) * in_model.y() / in_model.z() + double(camera.cy);
+      if (!(u > -0.5 && v > -0.5 && u < camera.width - 0.5 && v < camera.height - 0.5)) continue;
+      const size_t j = model_map.Index(int(u + 0.5), int(v + 0.5));
+      if (!IsValid(model_map.normals[j])) continue;
+      const Eigen::Vector3d d = truth * p - model_map.points[j].cast<double>();
+      const Eigen::Vector3d n_model = model_map.normals[j].cast<double>();
+      const Eigen::Vector3d n_c = R.transpose() * n_model;
+      if (d.squaredNorm() > gate * gate) continue;
+      if (n_c.dot(live_map.normals[i].cast<double>()) < min_cos) continue;
+      ++inliers;
+      const double r = n_model.dot(d);
+      const double w = std::abs(r) <= options.huber_m ? 1.0 : options.huber_m / std::abs(r);
+      Vector6d jac;
+      jac << p.cross(n_c), n_c;
+      information += w * jac * jac.transpose();
+    }
+  }
+  EXPECT_EQ(result.valid_points, valid);
+  ASSERT_GT(inliers, 1000);
+  EXPECT_LT(inliers, valid);  // the gates did reject some
+  // A pixel exactly at a gate may go either way between float and double.
+  EXPECT_NEAR(result.inliers, inliers, 2);
+  EXPECT_LT((result.information - information).norm(), 1e-4 * information.norm());
+}
+
 // A single wall constrains only the motion along its normal and the two tilts: the normal
 // matrix has three (near) zero eigenvalues.
 TEST(AlignToModel, AFlatWallIsIllConditioned) {

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/strings.h"
 #include "reconstruct/option_check.h"
+#include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
 
@@ -48,23 +49,36 @@ constexpr double kMaxColourGapS = 0.1;
 
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth) {
+                       const core::Rigid3d& rgb_from_depth, int num_threads) {
   assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3);
   cv::Mat registered(depth_m.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  // In float, without Eigen or lround in the per-pixel loop (a full-size frame per frame).
   const Eigen::Matrix3f R = rgb_from_depth.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f t = rgb_from_depth.translation.cast<float>();
-  for (int y = 0; y < depth_m.rows; ++y) {
-    const float* depth_row = depth_m.ptr<float>(y);
-    cv::Vec3b* out = registered.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < depth_m.cols; ++x) {
-      const float z = depth_row[x];
-      if (!(z > 0)) continue;
-      const Eigen::Vector3f p = R * depth_camera.Unproject(float(x), float(y), z) + t;
-      if (!(p.z() > 0)) continue;
-      int u = 0, v = 0;
-      if (rgb_camera.NearestPixel(rgb_camera.Project(p), u, v)) out[x] = rgb.at<cv::Vec3b>(v, u);
+  const float inv_fx = 1.0f / depth_camera.fx, inv_fy = 1.0f / depth_camera.fy;
+  const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
+  ForEachBand(depth_m.rows, num_threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* depth_row = depth_m.ptr<float>(y);
+      cv::Vec3b* out = registered.ptr<cv::Vec3b>(y);
+      const float ray_y = (static_cast<float>(y) - depth_camera.cy) * inv_fy;
+      for (int x = 0; x < depth_m.cols; ++x) {
+        const float z = depth_row[x];
+        if (!(z > 0) || std::isinf(z)) continue;
+        const float px = (static_cast<float>(x) - depth_camera.cx) * inv_fx * z, py = ray_y * z;
+        const float cx = R(0, 0) * px + R(0, 1) * py + R(0, 2) * z + t.x();
+        const float cy = R(1, 0) * px + R(1, 1) * py + R(1, 2) * z + t.y();
+        const float cz = R(2, 0) * px + R(2, 1) * py + R(2, 2) * z + t.z();
+        if (!(cz > 0)) continue;
+        const float inv_z = 1.0f / cz;
+        const float u = rgb_camera.fx * cx * inv_z + rgb_camera.cx;
+        const float v = rgb_camera.fy * cy * inv_z + rgb_camera.cy;
+        // The nearest pixel, when inside the image (the test also rejects NaN).
+        if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
+        out[x] = rgb.at<cv::Vec3b>(static_cast<int>(v + 0.5f), static_cast<int>(u + 0.5f));
+      }
     }
-  }
+  });
   return registered;
 }
 
@@ -173,26 +187,10 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   record.timestamp_s = frame.timestamp_s;
 
   auto start = std::chrono::steady_clock::now();
-  // NaN / inf pixels are missing measurements, not numbers to fuse (a copy only when needed).
-  cv::Mat depth_m = frame.depth_m;
-  for (int y = 0; y < depth_m.rows && depth_m.data == frame.depth_m.data; ++y) {
-    const float* row = frame.depth_m.ptr<float>(y);
-    for (int x = 0; x < depth_m.cols; ++x) {
-      if (!std::isfinite(row[x])) {
-        depth_m = frame.depth_m.clone();
-        break;
-      }
-    }
-  }
-  if (depth_m.data != frame.depth_m.data) {
-    for (int y = 0; y < depth_m.rows; ++y) {
-      float* row = depth_m.ptr<float>(y);
-      for (int x = 0; x < depth_m.cols; ++x) {
-        if (!std::isfinite(row[x])) row[x] = 0;
-      }
-    }
-  }
-  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(depth_m);
+  // NaN / inf pixels are missing measurements, not numbers to fuse: undistortion copies them
+  // (nearest neighbour), the pyramid's range limits drop them from everything downstream, and
+  // registration skips them.
+  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(frame.depth_m);
   // The colour frame, undistorted once for both uses: registered to the depth pixels for
   // ICP's photometric term, and projected into the volume by integration.
   cv::Mat rgb_pinhole, registered_rgb;
@@ -208,7 +206,8 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                              PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
       }
       registered_rgb = RegisterColour(undistorted, depth_undistorter_.pinhole(), rgb_pinhole,
-                                      rgb_undistorter_.pinhole(), depth_from_rgb_now.Inverse());
+                                      rgb_undistorter_.pinhole(), depth_from_rgb_now.Inverse(),
+                                      options_.num_threads);
     }
   }
   const DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),

@@ -168,10 +168,11 @@ class Reconstruction {
 // depth_camera) moved by rgb_from_depth and projected into `rgb` (CV_8UC3, pinhole
 // rgb_camera), nearest pixel. Black where there is no depth or the point falls outside the
 // colour image. Surfaces hidden from the colour camera by a nearer one take that one's
-// colour (a few pixels at depth edges with a 2–5 cm baseline).
+// colour (a few pixels at depth edges with a 2–5 cm baseline). Non-finite depth counts as
+// none. num_threads: row bands run at once (0: hardware concurrency).
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth);
+                       const core::Rigid3d& rgb_from_depth, int num_threads = 0);
 
 // Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with the rgb
 // frame nearest in time within 0.1 s (at that frame's depth-clock time) when with_rgb and its
