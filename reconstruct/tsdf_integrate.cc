@@ -15,7 +15,13 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
+
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#endif
 
 #include <Eigen/Geometry>
 
@@ -96,6 +102,268 @@ BlockKey Unpack(uint64_t key) {
   return {field(key >> 42), field(key >> 21), field(key)};
 }
 
+// What the per-voxel update needs of one frame (Integrate's constants).
+struct FrameParams {
+  const float* depth;  // depth_m's pixels, depth_step floats per row
+  size_t depth_step;
+  float fx, fy, cx, cy;
+  float u_limit, v_limit;  // nearest pixel inside the image: u in (−0.5, u_limit)
+  float u_inner, v_inner;  // the 2×2 pixels of bilinear depth inside: u in [0, u_inner)
+  float min_depth_m, max_depth_m;
+  float truncation_m, half_truncation_m, inv_truncation;
+  float edge_slope_per_m;
+  float max_weight;
+  const float* inv_count;  // 1 / (w + 1) for whole weights 0 … max_weight
+  // Colour (colour_rgb null: none).
+  const std::uint8_t* colour_rgb;
+  size_t colour_step;  // bytes per row
+  int colour_width, colour_height;
+  float colour_rotation[9];  // colour_from_camera, row-major
+  float colour_translation[3];
+  float colour_fx, colour_fy, colour_cx, colour_cy;
+  float colour_u_limit, colour_v_limit;
+  int max_colour_weight;
+};
+
+// The camera-frame centres of one row of kBlockSide voxels (x, y, z of each).
+struct RowPoints {
+  alignas(32) float x[kBlockSide];
+  alignas(32) float y[kBlockSide];
+  alignas(32) float z[kBlockSide];
+};
+
+// Updates one row of kBlockSide voxels (consecutive in x) with the frame; returns how many
+// were updated. The reference implementation: UpdateRowAvx2 must give the same bits.
+int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
+  int count = 0;
+  for (int x = 0; x < kBlockSide; ++x, ++voxel) {
+    const float pz = row.z[x];
+    if (!(pz > 0)) continue;
+    const float inv_z = 1.0f / pz;
+    const float u = f.fx * row.x[x] * inv_z + f.cx, v = f.fy * row.y[x] * inv_z + f.cy;
+    if (!(u > -0.5f && u < f.u_limit && v > -0.5f && v < f.v_limit)) continue;
+    float d = f.depth[static_cast<size_t>(v + 0.5f) * f.depth_step + static_cast<size_t>(u + 0.5f)];
+    if (!(d >= f.min_depth_m && d <= f.max_depth_m)) continue;
+    // Bilinear depth can move d by at most the spread it accepts (below): beyond that margin
+    // around the band the voxel is free space (tsdf 1) or hidden either way.
+    const float margin_m = f.truncation_m + f.half_truncation_m + d * f.edge_slope_per_m;
+    if (d - pz < -margin_m) continue;
+    if (d - pz < margin_m && u >= 0 && v >= 0 && u < f.u_inner && v < f.v_inner) {
+      // Bilinear depth where the four pixels around lie on one surface: the nearest pixel's
+      // depth alone would be off by up to half a pixel times the depth slope (a quarter
+      // voxel on a 45° wall). One surface: a spread below half a truncation plus what a
+      // surface at up to 76° (slope 4) to the view spans over a pixel; a larger jump is a
+      // depth edge, where interpolating would invent a surface between the two.
+      const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+      const float* d0 = f.depth + static_cast<size_t>(y0) * f.depth_step + x0;
+      const float* d1 = d0 + f.depth_step;
+      const float lo = std::min(std::min(d0[0], d0[1]), std::min(d1[0], d1[1]));
+      const float hi = std::max(std::max(d0[0], d0[1]), std::max(d1[0], d1[1]));
+      // (NaN fails every comparison: such a pixel keeps the nearest depth.)
+      if (lo >= f.min_depth_m && hi <= f.max_depth_m && hi - lo < f.half_truncation_m + lo * f.edge_slope_per_m &&
+          d0[0] == d0[0] && d0[1] == d0[1] && d1[0] == d1[0] && d1[1] == d1[1]) {
+        const float a = u - static_cast<float>(x0), c = v - static_cast<float>(y0);
+        const float top = d0[0] + a * (d0[1] - d0[0]), bottom = d1[0] + a * (d1[1] - d1[0]);
+        d = top + c * (bottom - top);
+      }
+    }
+    const float sdf_m = d - pz;
+    if (sdf_m < -f.truncation_m) continue;  // hidden behind the surface: unknown
+    const float tsdf = std::min(1.0f, sdf_m * f.inv_truncation);
+    const float w = voxel->weight;
+    const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
+    const float inv = static_cast<float>(wi) == w ? f.inv_count[wi] : 1.0f / (w + 1);
+    voxel->sdf = (voxel->sdf * w + tsdf) * inv;
+    voxel->weight = std::min(w + 1, f.max_weight);
+    ++count;
+    if (f.colour_rgb == nullptr || sdf_m >= f.truncation_m) continue;
+    const float* r = f.colour_rotation;
+    // Summed as Eigen's rotation * p + translation (which it replaced): the same pixel.
+    const float qx = (r[0] * row.x[x] + (r[1] * row.y[x] + r[2] * pz)) + f.colour_translation[0];
+    const float qy = (r[3] * row.x[x] + (r[4] * row.y[x] + r[5] * pz)) + f.colour_translation[1];
+    const float qz = (r[6] * row.x[x] + (r[7] * row.y[x] + r[8] * pz)) + f.colour_translation[2];
+    if (!(qz > 0)) continue;
+    const float inv_qz = 1.0f / qz;
+    const float cu = f.colour_fx * qx * inv_qz + f.colour_cx, cv = f.colour_fy * qy * inv_qz + f.colour_cy;
+    if (!(cu > -0.5f && cu < f.colour_u_limit && cv > -0.5f && cv < f.colour_v_limit)) continue;
+    const auto* rgb = f.colour_rgb + static_cast<size_t>(cv + 0.5f) * f.colour_step + 3 * static_cast<size_t>(cu + 0.5f);
+    const int cw = voxel->colour_weight;
+    const float inv_cw = f.inv_count[cw];  // cw <= min(max_weight, 255)
+    for (int k = 0; k < 3; ++k) {
+      const float mean = (static_cast<float>(voxel->colour[k]) * static_cast<float>(cw) + rgb[k]) * inv_cw;
+      voxel->colour[k] = static_cast<std::uint8_t>(mean + 0.5f);
+    }
+    voxel->colour_weight = static_cast<std::uint8_t>(std::min(cw + 1, f.max_colour_weight));
+  }
+  return count;
+}
+
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define HW_TSDF_AVX2 1
+
+// UpdateRowScalar on the 8 voxels at once (AVX2; the binary stays portable: called only
+// where the CPU has it). Same operations in the same order, no FMA (the target has none, so
+// the compiler cannot contract a·b + c): the same bits as the scalar row. The 8 voxels (96
+// bytes, AoS) are loaded as three registers, split into sdf / weight / colour word and
+// merged back with blends and permutes, and stored whole (lanes not updated keep their bits).
+__attribute__((target("avx2"))) int UpdateRowAvx2(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
+  const __m256 px = _mm256_load_ps(row.x), py = _mm256_load_ps(row.y), pz = _mm256_load_ps(row.z);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 in_front = _mm256_cmp_ps(pz, zero, _CMP_GT_OQ);
+  if (_mm256_movemask_ps(in_front) == 0) return 0;
+  const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), pz);
+  const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.fx), px), inv_z), _mm256_set1_ps(f.cx));
+  const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.fy), py), inv_z), _mm256_set1_ps(f.cy));
+  const __m256 minus_half = _mm256_set1_ps(-0.5f), half = _mm256_set1_ps(0.5f);
+  __m256 mask = _mm256_and_ps(in_front, _mm256_and_ps(_mm256_cmp_ps(u, minus_half, _CMP_GT_OQ),
+                                                     _mm256_cmp_ps(u, _mm256_set1_ps(f.u_limit), _CMP_LT_OQ)));
+  mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(v, minus_half, _CMP_GT_OQ),
+                                           _mm256_cmp_ps(v, _mm256_set1_ps(f.v_limit), _CMP_LT_OQ)));
+  if (_mm256_movemask_ps(mask) == 0) return 0;
+  const __m256i step = _mm256_set1_epi32(static_cast<int>(f.depth_step));
+  // Lanes outside the mask compute garbage indices but load nothing (masked gathers).
+  const __m256i nearest = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(v, half)), step),
+                                           _mm256_cvttps_epi32(_mm256_add_ps(u, half)));
+  __m256 d = _mm256_mask_i32gather_ps(zero, f.depth, nearest, mask, 4);
+  const __m256 min_depth = _mm256_set1_ps(f.min_depth_m), max_depth = _mm256_set1_ps(f.max_depth_m);
+  mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, min_depth, _CMP_GE_OQ),
+                                           _mm256_cmp_ps(d, max_depth, _CMP_LE_OQ)));
+  const __m256 slope = _mm256_set1_ps(f.edge_slope_per_m);
+  const __m256 margin = _mm256_add_ps(_mm256_set1_ps(f.truncation_m + f.half_truncation_m), _mm256_mul_ps(d, slope));
+  const __m256 ahead = _mm256_sub_ps(d, pz);
+  // !(ahead < −margin); the operands are finite on mask lanes.
+  mask = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, _mm256_sub_ps(zero, margin), _CMP_NLT_UQ));
+  if (_mm256_movemask_ps(mask) == 0) return 0;
+  __m256 near = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, margin, _CMP_LT_OQ));
+  near = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)));
+  near = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(u, _mm256_set1_ps(f.u_inner), _CMP_LT_OQ),
+                                           _mm256_cmp_ps(v, _mm256_set1_ps(f.v_inner), _CMP_LT_OQ)));
+  if (_mm256_movemask_ps(near) != 0) {
+    const __m256i x0 = _mm256_cvttps_epi32(u), y0 = _mm256_cvttps_epi32(v);
+    const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(y0, step), x0);
+    const __m256 d00 = _mm256_mask_i32gather_ps(zero, f.depth, i00, near, 4);
+    const __m256 d01 = _mm256_mask_i32gather_ps(zero, f.depth + 1, i00, near, 4);
+    const __m256 d10 = _mm256_mask_i32gather_ps(zero, f.depth + f.depth_step, i00, near, 4);
+    const __m256 d11 = _mm256_mask_i32gather_ps(zero, f.depth + f.depth_step + 1, i00, near, 4);
+    // min/max differ from std::min/max only with a NaN operand, which fails `one` anyway.
+    const __m256 lo = _mm256_min_ps(_mm256_min_ps(d00, d01), _mm256_min_ps(d10, d11));
+    const __m256 hi = _mm256_max_ps(_mm256_max_ps(d00, d01), _mm256_max_ps(d10, d11));
+    __m256 one = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(lo, min_depth, _CMP_GE_OQ),
+                                                   _mm256_cmp_ps(hi, max_depth, _CMP_LE_OQ)));
+    one = _mm256_and_ps(one, _mm256_cmp_ps(_mm256_sub_ps(hi, lo),
+                                           _mm256_add_ps(_mm256_set1_ps(f.half_truncation_m), _mm256_mul_ps(lo, slope)),
+                                           _CMP_LT_OQ));
+    one = _mm256_and_ps(one, _mm256_and_ps(_mm256_cmp_ps(d00, d01, _CMP_ORD_Q), _mm256_cmp_ps(d10, d11, _CMP_ORD_Q)));
+    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0)), c = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
+    const __m256 top = _mm256_add_ps(d00, _mm256_mul_ps(a, _mm256_sub_ps(d01, d00)));
+    const __m256 bottom = _mm256_add_ps(d10, _mm256_mul_ps(a, _mm256_sub_ps(d11, d10)));
+    d = _mm256_blendv_ps(d, _mm256_add_ps(top, _mm256_mul_ps(c, _mm256_sub_ps(bottom, top))), one);
+  }
+  const __m256 sdf_m = _mm256_sub_ps(d, pz);
+  const __m256 truncation = _mm256_set1_ps(f.truncation_m);
+  mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, _mm256_sub_ps(zero, truncation), _CMP_NLT_UQ));
+  const int updated = _mm256_movemask_ps(mask);
+  if (updated == 0) return 0;
+
+  // Split the AoS row: dword k of the 24 is component k % 3 of voxel k / 3, in register
+  // k / 8 at lane k % 8. Blending the three registers gathers one component's 8 dwords in
+  // one register (lane j from the register where it holds that component), a permute puts
+  // them in voxel order.
+  float* raw = reinterpret_cast<float*>(voxel);
+  const __m256 r0 = _mm256_loadu_ps(raw), r1 = _mm256_loadu_ps(raw + 8), r2 = _mm256_loadu_ps(raw + 16);
+  const __m256i order0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
+  const __m256i order1 = _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6);
+  const __m256i order2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
+  const __m256 old_sdf = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x92), r2, 0x24), order0);
+  const __m256 weight = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x24), r2, 0x49), order1);
+  __m256i colour_word = _mm256_castps_si256(
+      _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x49), r2, 0x92), order2));
+
+  const __m256 unit = _mm256_set1_ps(1.0f);
+  const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf_m, _mm256_set1_ps(f.inv_truncation)), unit);
+  const __m256 weight_1 = _mm256_add_ps(weight, unit);
+  // 1 / (w + 1) rounded once: the value inv_count holds for a whole w.
+  const __m256 inv = _mm256_div_ps(unit, weight_1);
+  const __m256 new_sdf = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(old_sdf, weight), tsdf), inv);
+  const __m256 new_weight = _mm256_min_ps(weight_1, _mm256_set1_ps(f.max_weight));
+  const __m256 sdf_out = _mm256_blendv_ps(old_sdf, new_sdf, mask);
+  const __m256 weight_out = _mm256_blendv_ps(weight, new_weight, mask);
+
+  if (f.colour_rgb != nullptr) {
+    __m256 paint = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, truncation, _CMP_LT_OQ));
+    if (_mm256_movemask_ps(paint) != 0) {
+      const float* r = f.colour_rotation;
+      __m256 q[3];  // r · p + t, summed as UpdateRowScalar does
+      for (int i = 0; i < 3; ++i) {
+        const __m256 yz = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(r[3 * i + 1]), py),
+                                        _mm256_mul_ps(_mm256_set1_ps(r[3 * i + 2]), pz));
+        q[i] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(r[3 * i]), px), yz),
+                             _mm256_set1_ps(f.colour_translation[i]));
+      }
+      const __m256 qx = q[0], qy = q[1], qz = q[2];
+      paint = _mm256_and_ps(paint, _mm256_cmp_ps(qz, zero, _CMP_GT_OQ));
+      const __m256 inv_qz = _mm256_div_ps(unit, qz);
+      const __m256 cu = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fx), qx), inv_qz),
+                                      _mm256_set1_ps(f.colour_cx));
+      const __m256 cv = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fy), qy), inv_qz),
+                                      _mm256_set1_ps(f.colour_cy));
+      paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cu, minus_half, _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(cu, _mm256_set1_ps(f.colour_u_limit), _CMP_LT_OQ)));
+      paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cv, minus_half, _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(cv, _mm256_set1_ps(f.colour_v_limit), _CMP_LT_OQ)));
+      if (_mm256_movemask_ps(paint) != 0) {
+        // The pixel's 3 bytes read as one dword; the image's very last pixel from one byte
+        // earlier (then shifted), so that no read passes the end of the image.
+        const __m256i offset = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(cv, half)),
+                               _mm256_set1_epi32(static_cast<int>(f.colour_step))),
+            _mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(cu, half)), _mm256_set1_epi32(3)));
+        const int last = static_cast<int>(static_cast<size_t>(f.colour_height - 1) * f.colour_step) +
+                         3 * (f.colour_width - 1) - 1;
+        const __m256i safe = _mm256_min_epi32(offset, _mm256_set1_epi32(last));
+        const __m256i shift = _mm256_slli_epi32(_mm256_sub_epi32(offset, safe), 3);
+        const __m256i rgb = _mm256_srlv_epi32(
+            _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(f.colour_rgb), safe,
+                                        _mm256_castps_si256(paint), 1),
+            shift);
+        const __m256i byte = _mm256_set1_epi32(0xff);
+        const __m256i cw = _mm256_srli_epi32(colour_word, 24);
+        const __m256 cw_f = _mm256_cvtepi32_ps(cw);
+        const __m256 inv_cw = _mm256_div_ps(unit, _mm256_add_ps(cw_f, unit));  // = inv_count[cw]
+        __m256i painted = _mm256_slli_epi32(
+            _mm256_min_epi32(_mm256_add_epi32(cw, _mm256_set1_epi32(1)), _mm256_set1_epi32(f.max_colour_weight)), 24);
+        for (int k = 0; k < 3; ++k) {
+          const __m256 old_k = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(colour_word, 8 * k), byte));
+          const __m256 new_k = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(rgb, 8 * k), byte));
+          const __m256 mean = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(old_k, cw_f), new_k), inv_cw);
+          const __m256i rounded = _mm256_cvttps_epi32(_mm256_add_ps(mean, half));
+          painted = _mm256_or_si256(painted, _mm256_slli_epi32(rounded, 8 * k));
+        }
+        colour_word = _mm256_castps_si256(
+            _mm256_blendv_ps(_mm256_castsi256_ps(colour_word), _mm256_castsi256_ps(painted), paint));
+      }
+    }
+  }
+
+  // Merge back: lane j of register R holds component (j + 2R) % 3 of its voxel.
+  const __m256i back0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
+  const __m256i back1 = _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2);
+  const __m256i back2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
+  const __m256 a0 = _mm256_permutevar8x32_ps(sdf_out, back0);
+  const __m256 a1 = _mm256_permutevar8x32_ps(weight_out, back1);
+  const __m256 a2 = _mm256_permutevar8x32_ps(_mm256_castsi256_ps(colour_word), back2);
+  _mm256_storeu_ps(raw, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x92), a2, 0x24));
+  _mm256_storeu_ps(raw + 8, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x24), a2, 0x49));
+  _mm256_storeu_ps(raw + 16, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x49), a2, 0x92));
+  return __builtin_popcount(static_cast<unsigned>(updated));
+}
+
+bool CpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+#endif
+
 }  // namespace
 
 IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera& camera,
@@ -171,115 +439,91 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   stats.blocks_allocated = static_cast<int>(impl.blocks.size() - blocks_before);
   stats.blocks_visible = static_cast<int>(visible.size());
 
-  // 2. Update of the voxels of the visible blocks, in num_threads contiguous chunks (each
-  // block belongs to one chunk: no two threads write one voxel).
+  // 2. Update of the voxels of the visible blocks. Threads take chunks of blocks from a
+  // shared counter (each block belongs to one chunk: no two threads write one voxel; the
+  // result does not depend on which thread takes which): on 2 shared cores a fixed split
+  // waits for the slower half.
   const core::Rigid3d camera_from_world = world_from_camera.Inverse();
   const Eigen::Matrix3f cw_rotation = camera_from_world.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f cw_translation = camera_from_world.translation.cast<float>();
-  const bool with_colour = colour != nullptr && !colour->rgb.empty();
-  Eigen::Matrix3f colour_from_camera_rotation = Eigen::Matrix3f::Identity();
-  Eigen::Vector3f colour_from_camera_translation = Eigen::Vector3f::Zero();
-  if (with_colour) {
-    const core::Rigid3d colour_from_camera = colour->world_from_camera.Inverse() * world_from_camera;
-    colour_from_camera_rotation = colour_from_camera.rotation.toRotationMatrix().cast<float>();
-    colour_from_camera_translation = colour_from_camera.translation.cast<float>();
-  }
-  const float colour_fx = with_colour ? colour->camera.fx : 0, colour_fy = with_colour ? colour->camera.fy : 0;
-  const float colour_cx = with_colour ? colour->camera.cx : 0, colour_cy = with_colour ? colour->camera.cy : 0;
-  const float colour_u_limit = with_colour ? static_cast<float>(colour->camera.width) - 0.5f : 0;
-  const float colour_v_limit = with_colour ? static_cast<float>(colour->camera.height) - 0.5f : 0;
-  const std::uint8_t* colour_rgb = with_colour ? colour->rgb.ptr<std::uint8_t>(0) : nullptr;
-  const size_t colour_step = with_colour ? colour->rgb.step1() : 0;
-  const float max_weight = static_cast<float>(options_.max_weight);
-  const int max_colour_weight = static_cast<int>(std::min(options_.max_weight, 255.0));
-  const float inv_truncation = 1.0f / truncation_m;
-  const float u_limit = static_cast<float>(width) - 0.5f, v_limit = static_cast<float>(height) - 0.5f;
-  const float u_inner = static_cast<float>(width - 1), v_inner = static_cast<float>(height - 1);
-  const float half_truncation_m = 0.5f * truncation_m;
-  const float edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, see below
-  const float fx = camera.fx, fy = camera.fy, cx = camera.cx, cy = camera.cy;
-  const size_t depth_step = depth_m.step1();
-  const float* depth = depth_m.ptr<float>(0);
-
   // 1 / (w + 1) for every weight a voxel can hold (integers up to max_weight): a
   // multiplication instead of a division per voxel.
+  const float max_weight = static_cast<float>(options_.max_weight);
   if (impl.inv_count.empty()) {
     impl.inv_count.resize(static_cast<size_t>(max_weight) + 1);
     for (size_t w = 0; w < impl.inv_count.size(); ++w) impl.inv_count[w] = 1.0f / static_cast<float>(w + 1);
   }
-  const float* inv_count = impl.inv_count.data();
+  FrameParams f{};
+  f.depth = depth_m.ptr<float>(0);
+  f.depth_step = depth_m.step1();
+  f.fx = camera.fx;
+  f.fy = camera.fy;
+  f.cx = camera.cx;
+  f.cy = camera.cy;
+  f.u_limit = static_cast<float>(width) - 0.5f;
+  f.v_limit = static_cast<float>(height) - 0.5f;
+  f.u_inner = static_cast<float>(width - 1);
+  f.v_inner = static_cast<float>(height - 1);
+  f.min_depth_m = min_depth_m;
+  f.max_depth_m = max_depth_m;
+  f.truncation_m = truncation_m;
+  f.half_truncation_m = 0.5f * truncation_m;
+  f.inv_truncation = 1.0f / truncation_m;
+  f.edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, UpdateRowScalar
+  f.max_weight = max_weight;
+  f.inv_count = impl.inv_count.data();
+  f.max_colour_weight = static_cast<int>(std::min(options_.max_weight, 255.0));
+  if (colour != nullptr && !colour->rgb.empty()) {
+    const core::Rigid3d colour_from_camera = colour->world_from_camera.Inverse() * world_from_camera;
+    const Eigen::Matrix3f r = colour_from_camera.rotation.toRotationMatrix().cast<float>();
+    for (int i = 0; i < 9; ++i) f.colour_rotation[i] = r(i / 3, i % 3);
+    for (int i = 0; i < 3; ++i) f.colour_translation[i] = static_cast<float>(colour_from_camera.translation[i]);
+    f.colour_rgb = colour->rgb.ptr<std::uint8_t>(0);
+    f.colour_step = colour->rgb.step1();
+    f.colour_width = colour->camera.width;
+    f.colour_height = colour->camera.height;
+    f.colour_fx = colour->camera.fx;
+    f.colour_fy = colour->camera.fy;
+    f.colour_cx = colour->camera.cx;
+    f.colour_cy = colour->camera.cy;
+    f.colour_u_limit = static_cast<float>(colour->camera.width) - 0.5f;
+    f.colour_v_limit = static_cast<float>(colour->camera.height) - 0.5f;
+  }
+  int (*update_row)(const FrameParams&, const RowPoints&, Voxel*) = UpdateRowScalar;
+#ifdef HW_TSDF_AVX2
+  if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_row = UpdateRowAvx2;
+#endif
+
   std::vector<int64_t> updated(num_threads, 0);
+  std::atomic<size_t> next_block{0};
+  constexpr size_t kChunkBlocks = 32;
   internal::RunChunks(num_threads, [&](int chunk) {
-    const size_t begin = visible.size() * chunk / num_threads;
-    const size_t end = visible.size() * (chunk + 1) / num_threads;
     // Voxel steps along the world axes, in the camera frame.
     const Eigen::Vector3f step_x = cw_rotation.col(0) * voxel_m;
     const Eigen::Vector3f step_y = cw_rotation.col(1) * voxel_m;
     const Eigen::Vector3f step_z = cw_rotation.col(2) * voxel_m;
     int64_t count = 0;
-    for (size_t b = begin; b < end; ++b) {
-      VoxelBlock& block = *visible[b];
-      const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
-      const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
-      Voxel* voxel = block.voxels.data();
-      for (int z = 0; z < kBlockSide; ++z) {
-        for (int y = 0; y < kBlockSide; ++y) {
-          Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
-          for (int x = 0; x < kBlockSide; ++x, ++voxel, p += step_x) {
-            if (!(p.z() > 0)) continue;
-            const float inv_z = 1.0f / p.z();
-            const float u = fx * p.x() * inv_z + cx, v = fy * p.y() * inv_z + cy;
-            if (!(u > -0.5f && u < u_limit && v > -0.5f && v < v_limit)) continue;
-            float d = depth[static_cast<size_t>(v + 0.5f) * depth_step + static_cast<size_t>(u + 0.5f)];
-            if (!(d >= min_depth_m && d <= max_depth_m)) continue;
-            // Bilinear depth can move d by at most the spread it accepts (below): beyond
-            // that margin around the band the voxel is free space (tsdf 1) or hidden
-            // either way, and most voxels of a block are one or the other.
-            const float margin_m = truncation_m + half_truncation_m + d * edge_slope_per_m;
-            if (d - p.z() < -margin_m) continue;
-            if (d - p.z() < margin_m && u >= 0 && v >= 0 && u < u_inner && v < v_inner) {
-              // Bilinear depth where the four pixels around lie on one surface: the nearest
-              // pixel's depth alone would be off by up to half a pixel times the depth slope
-              // (a quarter voxel on a 45° wall). One surface: a spread below half a
-              // truncation plus what a surface at up to 76° (slope 4) to the view spans
-              // over a pixel; a larger jump is a depth edge, where interpolating would
-              // invent a surface between the two.
-              const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-              const float* d0 = depth + static_cast<size_t>(y0) * depth_step + x0;
-              const float* d1 = d0 + depth_step;
-              const float lo = std::min(std::min(d0[0], d0[1]), std::min(d1[0], d1[1]));
-              const float hi = std::max(std::max(d0[0], d0[1]), std::max(d1[0], d1[1]));
-              // (NaN fails every comparison: such a pixel keeps the nearest depth.)
-              if (lo >= min_depth_m && hi <= max_depth_m && hi - lo < half_truncation_m + lo * edge_slope_per_m &&
-                  d0[0] == d0[0] && d0[1] == d0[1] && d1[0] == d1[0] && d1[1] == d1[1]) {
-                const float a = u - static_cast<float>(x0), c = v - static_cast<float>(y0);
-                const float top = d0[0] + a * (d0[1] - d0[0]), bottom = d1[0] + a * (d1[1] - d1[0]);
-                d = top + c * (bottom - top);
-              }
+    RowPoints row;
+    for (;;) {
+      const size_t begin = next_block.fetch_add(kChunkBlocks, std::memory_order_relaxed);
+      if (begin >= visible.size()) break;
+      const size_t end = std::min(begin + kChunkBlocks, visible.size());
+      for (size_t b = begin; b < end; ++b) {
+        VoxelBlock& block = *visible[b];
+        const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
+        const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
+        Voxel* voxel = block.voxels.data();
+        for (int z = 0; z < kBlockSide; ++z) {
+          for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+            // Voxel centres stepped along x one addition at a time (as they always were:
+            // the same bits whichever kernel reads them).
+            Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
+            for (int x = 0; x < kBlockSide; ++x, p += step_x) {
+              row.x[x] = p.x();
+              row.y[x] = p.y();
+              row.z[x] = p.z();
             }
-            const float sdf_m = d - p.z();
-            if (sdf_m < -truncation_m) continue;  // hidden behind the surface: unknown
-            const float tsdf = std::min(1.0f, sdf_m * inv_truncation);
-            const float w = voxel->weight;
-            const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
-            const float inv = static_cast<float>(wi) == w ? inv_count[wi] : 1.0f / (w + 1);
-            voxel->sdf = (voxel->sdf * w + tsdf) * inv;
-            voxel->weight = std::min(w + 1, max_weight);
-            ++count;
-            if (!with_colour || sdf_m >= truncation_m) continue;
-            const Eigen::Vector3f q = colour_from_camera_rotation * p + colour_from_camera_translation;
-            if (!(q.z() > 0)) continue;
-            const float inv_qz = 1.0f / q.z();
-            const float cu = colour_fx * q.x() * inv_qz + colour_cx, cv = colour_fy * q.y() * inv_qz + colour_cy;
-            if (!(cu > -0.5f && cu < colour_u_limit && cv > -0.5f && cv < colour_v_limit)) continue;
-            const auto* rgb = colour_rgb + static_cast<size_t>(cv + 0.5f) * colour_step + 3 * static_cast<size_t>(cu + 0.5f);
-            const int cw = voxel->colour_weight;
-            const float inv_cw = inv_count[cw];  // cw <= min(max_weight, 255)
-            for (int c = 0; c < 3; ++c) {
-              const float mean = (static_cast<float>(voxel->colour[c]) * static_cast<float>(cw) + rgb[c]) * inv_cw;
-              voxel->colour[c] = static_cast<std::uint8_t>(mean + 0.5f);
-            }
-            voxel->colour_weight = static_cast<std::uint8_t>(std::min(cw + 1, max_colour_weight));
+            count += update_row(f, row, voxel);
           }
         }
       }

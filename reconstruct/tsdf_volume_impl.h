@@ -3,6 +3,7 @@
 // Internal to the TSDF sources (tsdf_volume.cc, tsdf_integrate.cc): the block storage and
 // the coarse thread split they share.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <thread>
@@ -26,6 +27,10 @@ inline bool KeyInRange(int x, int y, int z) {
   constexpr int kLimit = 1 << 20;
   return x >= -kLimit && x < kLimit && y >= -kLimit && y < kLimit && z >= -kLimit && z < kLimit;
 }
+
+// Whether Integrate may use its SIMD row kernel where the CPU has one (true). A test hook:
+// the scalar kernel is the reference the SIMD one must match bit for bit.
+inline std::atomic<bool> integrate_simd{true};
 
 // Threads to use for a num_threads option (0: hardware concurrency).
 inline int ResolveThreads(int num_threads) {
