@@ -123,6 +123,8 @@ struct FrameParams {
   float colour_fx, colour_fy, colour_cx, colour_cy;
   float colour_u_limit, colour_v_limit;
   int max_colour_weight;
+  // Voxel steps along the world axes, in the camera frame (m).
+  float step_x[3], step_y[3], step_z[3];
 };
 
 // The camera-frame centres of one row of kBlockSide voxels (x, y, z of each).
@@ -198,6 +200,30 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
   return count;
 }
 
+// Updates the kernel voxels of a block whose voxel (0, 0, 0) is at corner_in_camera (m);
+// returns how many were updated. The reference for UpdateBlockAvx2.
+int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_camera, Voxel* voxel) {
+  const Eigen::Vector3f step_x(f.step_x[0], f.step_x[1], f.step_x[2]);
+  const Eigen::Vector3f step_y(f.step_y[0], f.step_y[1], f.step_y[2]);
+  const Eigen::Vector3f step_z(f.step_z[0], f.step_z[1], f.step_z[2]);
+  int count = 0;
+  RowPoints row;
+  for (int z = 0; z < kBlockSide; ++z) {
+    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+      // Voxel centres stepped along x one addition at a time (as they always were: the
+      // SIMD kernel makes the same additions, so both see the same bits).
+      Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
+      for (int x = 0; x < kBlockSide; ++x, p += step_x) {
+        row.x[x] = p.x();
+        row.y[x] = p.y();
+        row.z[x] = p.z();
+      }
+      count += UpdateRowScalar(f, row, voxel);
+    }
+  }
+  return count;
+}
+
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
 #define HW_TSDF_AVX2 1
 
@@ -206,8 +232,16 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
 // the compiler cannot contract a·b + c): the same bits as the scalar row. The 8 voxels (96
 // bytes, AoS) are loaded as three registers, split into sdf / weight / colour word and
 // merged back with blends and permutes, and stored whole (lanes not updated keep their bits).
-__attribute__((target("avx2"))) int UpdateRowAvx2(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
-  const __m256 px = _mm256_load_ps(row.x), py = _mm256_load_ps(row.y), pz = _mm256_load_ps(row.z);
+__attribute__((target("avx2"))) inline __m256 EvenLanes(__m256 lo4, __m256 hi4) {
+  // [l0 r0 l1 r1 | l2 r2 l3 r3], [l4 r4 … | …] → [l0 … l7]
+  return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo4, hi4, 0x88)), 0xD8));
+}
+__attribute__((target("avx2"))) inline __m256 OddLanes(__m256 lo4, __m256 hi4) {  // → [r0 … r7]
+  return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo4, hi4, 0xDD)), 0xD8));
+}
+
+__attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const FrameParams& f, __m256 px, __m256 py,
+                                                                        __m256 pz, Voxel* voxel) {
   const __m256 zero = _mm256_setzero_ps();
   const __m256 in_front = _mm256_cmp_ps(pz, zero, _CMP_GT_OQ);
   if (_mm256_movemask_ps(in_front) == 0) return 0;
@@ -220,11 +254,47 @@ __attribute__((target("avx2"))) int UpdateRowAvx2(const FrameParams& f, const Ro
   mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(v, minus_half, _CMP_GT_OQ),
                                            _mm256_cmp_ps(v, _mm256_set1_ps(f.v_limit), _CMP_LT_OQ)));
   if (_mm256_movemask_ps(mask) == 0) return 0;
+  // The 2×2 pixels around the projection, read as two pixel pairs per voxel (four 64-bit
+  // gathers of 4 lanes: half the elements of eight 32-bit gathers), wherever they lie in the
+  // image; the nearest pixel is one of them. Lanes outside a mask compute garbage indices
+  // but load nothing (masked gathers).
   const __m256i step = _mm256_set1_epi32(static_cast<int>(f.depth_step));
-  // Lanes outside the mask compute garbage indices but load nothing (masked gathers).
-  const __m256i nearest = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(v, half)), step),
-                                           _mm256_cvttps_epi32(_mm256_add_ps(u, half)));
-  __m256 d = _mm256_mask_i32gather_ps(zero, f.depth, nearest, mask, 4);
+  const __m256i nx = _mm256_cvttps_epi32(_mm256_add_ps(u, half)), ny = _mm256_cvttps_epi32(_mm256_add_ps(v, half));
+  const __m256i x0 = _mm256_cvttps_epi32(u), y0 = _mm256_cvttps_epi32(v);
+  const __m256 interior = _mm256_and_ps(
+      mask, _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)),
+                          _mm256_and_ps(_mm256_cmp_ps(u, _mm256_set1_ps(f.u_inner), _CMP_LT_OQ),
+                                        _mm256_cmp_ps(v, _mm256_set1_ps(f.v_inner), _CMP_LT_OQ))));
+  const int interior_bits = _mm256_movemask_ps(interior);
+  __m256 d00 = zero, d01 = zero, d10 = zero, d11 = zero, d = zero;
+  if (interior_bits != 0) {
+    const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(y0, step), x0);
+    const __m128i i_lo = _mm256_castsi256_si128(i00), i_hi = _mm256_extracti128_si256(i00, 1);
+    const __m256i m = _mm256_castps_si256(interior);
+    const __m256d m_lo = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(m)));
+    const __m256d m_hi = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(m, 1)));
+    const double* top_row = reinterpret_cast<const double*>(f.depth);
+    const double* bottom_row = reinterpret_cast<const double*>(f.depth + f.depth_step);
+    const __m256d zero_d = _mm256_setzero_pd();
+    // Scale 4: an index counts floats; each lane reads the pixel and its right neighbour.
+    const __m256 t_lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, top_row, i_lo, m_lo, 4));
+    const __m256 t_hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, top_row, i_hi, m_hi, 4));
+    const __m256 b_lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, bottom_row, i_lo, m_lo, 4));
+    const __m256 b_hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, bottom_row, i_hi, m_hi, 4));
+    d00 = EvenLanes(t_lo, t_hi);
+    d01 = OddLanes(t_lo, t_hi);
+    d10 = EvenLanes(b_lo, b_hi);
+    d11 = OddLanes(b_lo, b_hi);
+    // The nearest pixel: (nx, ny) is (x0, y0) plus 0 or 1 along each axis.
+    const __m256 right_x = _mm256_castsi256_ps(_mm256_cmpgt_epi32(nx, x0));
+    const __m256 lower_y = _mm256_castsi256_ps(_mm256_cmpgt_epi32(ny, y0));
+    d = _mm256_blendv_ps(_mm256_blendv_ps(d00, d01, right_x), _mm256_blendv_ps(d10, d11, right_x), lower_y);
+  }
+  if (interior_bits != _mm256_movemask_ps(mask)) {  // on the image's last row or column
+    const __m256 border = _mm256_andnot_ps(interior, mask);
+    const __m256i nearest = _mm256_add_epi32(_mm256_mullo_epi32(ny, step), nx);
+    d = _mm256_blendv_ps(d, _mm256_mask_i32gather_ps(zero, f.depth, nearest, border, 4), border);
+  }
   const __m256 min_depth = _mm256_set1_ps(f.min_depth_m), max_depth = _mm256_set1_ps(f.max_depth_m);
   mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, min_depth, _CMP_GE_OQ),
                                            _mm256_cmp_ps(d, max_depth, _CMP_LE_OQ)));
@@ -234,17 +304,8 @@ __attribute__((target("avx2"))) int UpdateRowAvx2(const FrameParams& f, const Ro
   // !(ahead < −margin); the operands are finite on mask lanes.
   mask = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, _mm256_sub_ps(zero, margin), _CMP_NLT_UQ));
   if (_mm256_movemask_ps(mask) == 0) return 0;
-  __m256 near = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, margin, _CMP_LT_OQ));
-  near = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)));
-  near = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(u, _mm256_set1_ps(f.u_inner), _CMP_LT_OQ),
-                                           _mm256_cmp_ps(v, _mm256_set1_ps(f.v_inner), _CMP_LT_OQ)));
+  const __m256 near = _mm256_and_ps(_mm256_and_ps(mask, interior), _mm256_cmp_ps(ahead, margin, _CMP_LT_OQ));
   if (_mm256_movemask_ps(near) != 0) {
-    const __m256i x0 = _mm256_cvttps_epi32(u), y0 = _mm256_cvttps_epi32(v);
-    const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(y0, step), x0);
-    const __m256 d00 = _mm256_mask_i32gather_ps(zero, f.depth, i00, near, 4);
-    const __m256 d01 = _mm256_mask_i32gather_ps(zero, f.depth + 1, i00, near, 4);
-    const __m256 d10 = _mm256_mask_i32gather_ps(zero, f.depth + f.depth_step, i00, near, 4);
-    const __m256 d11 = _mm256_mask_i32gather_ps(zero, f.depth + f.depth_step + 1, i00, near, 4);
     // min/max differ from std::min/max only with a NaN operand, which fails `one` anyway.
     const __m256 lo = _mm256_min_ps(_mm256_min_ps(d00, d01), _mm256_min_ps(d10, d11));
     const __m256 hi = _mm256_max_ps(_mm256_max_ps(d00, d01), _mm256_max_ps(d10, d11));
@@ -356,6 +417,50 @@ __attribute__((target("avx2"))) int UpdateRowAvx2(const FrameParams& f, const Ro
   _mm256_storeu_ps(raw + 8, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x24), a2, 0x49));
   _mm256_storeu_ps(raw + 16, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x49), a2, 0x92));
   return __builtin_popcount(static_cast<unsigned>(updated));
+}
+
+// r[i] lane j → out[j] lane i (8×8 transpose).
+__attribute__((target("avx2"))) inline void Transpose8(const __m256 r[8], __m256 out[8]) {
+  __m256 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm256_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm256_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int i = 0; i < 2; ++i) {
+    u[4 * i] = _mm256_shuffle_ps(t[4 * i], t[4 * i + 2], 0x44);
+    u[4 * i + 1] = _mm256_shuffle_ps(t[4 * i], t[4 * i + 2], 0xEE);
+    u[4 * i + 2] = _mm256_shuffle_ps(t[4 * i + 1], t[4 * i + 3], 0x44);
+    u[4 * i + 3] = _mm256_shuffle_ps(t[4 * i + 1], t[4 * i + 3], 0xEE);
+  }
+  for (int i = 0; i < 4; ++i) {
+    out[i] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x20);
+    out[i + 4] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x31);
+  }
+}
+
+// UpdateBlockScalar with UpdateRowAvx2. The voxel centres of a z slab are made 8 rows at
+// once (lanes over y) with the scalar code's additions in the same order, then transposed
+// into rows (lanes over x).
+__attribute__((target("avx2"))) int UpdateBlockAvx2(const FrameParams& f, const Eigen::Vector3f& corner_in_camera,
+                                                    Voxel* voxel) {
+  const __m256 y_index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  int count = 0;
+  for (int z = 0; z < kBlockSide; ++z) {
+    __m256 rows[3][kBlockSide];
+    for (int i = 0; i < 3; ++i) {
+      __m256 columns[kBlockSide];
+      __m256 p = _mm256_add_ps(
+          _mm256_add_ps(_mm256_set1_ps(corner_in_camera[i]), _mm256_mul_ps(y_index, _mm256_set1_ps(f.step_y[i]))),
+          _mm256_set1_ps(static_cast<float>(z) * f.step_z[i]));
+      const __m256 step = _mm256_set1_ps(f.step_x[i]);
+      for (int x = 0; x < kBlockSide; ++x, p = _mm256_add_ps(p, step)) columns[x] = p;
+      Transpose8(columns, rows[i]);
+    }
+    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+      count += UpdateRowAvx2(f, rows[0][y], rows[1][y], rows[2][y], voxel);
+    }
+  }
+  return count;
 }
 
 bool CpuHasAvx2() {
@@ -489,21 +594,22 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     f.colour_u_limit = static_cast<float>(colour->camera.width) - 0.5f;
     f.colour_v_limit = static_cast<float>(colour->camera.height) - 0.5f;
   }
-  int (*update_row)(const FrameParams&, const RowPoints&, Voxel*) = UpdateRowScalar;
+  // Voxel steps along the world axes, in the camera frame.
+  for (int i = 0; i < 3; ++i) {
+    f.step_x[i] = cw_rotation(i, 0) * voxel_m;
+    f.step_y[i] = cw_rotation(i, 1) * voxel_m;
+    f.step_z[i] = cw_rotation(i, 2) * voxel_m;
+  }
+  int (*update_block)(const FrameParams&, const Eigen::Vector3f&, Voxel*) = UpdateBlockScalar;
 #ifdef HW_TSDF_AVX2
-  if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_row = UpdateRowAvx2;
+  if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_block = UpdateBlockAvx2;
 #endif
 
   std::vector<int64_t> updated(num_threads, 0);
   std::atomic<size_t> next_block{0};
   constexpr size_t kChunkBlocks = 32;
   internal::RunChunks(num_threads, [&](int chunk) {
-    // Voxel steps along the world axes, in the camera frame.
-    const Eigen::Vector3f step_x = cw_rotation.col(0) * voxel_m;
-    const Eigen::Vector3f step_y = cw_rotation.col(1) * voxel_m;
-    const Eigen::Vector3f step_z = cw_rotation.col(2) * voxel_m;
     int64_t count = 0;
-    RowPoints row;
     for (;;) {
       const size_t begin = next_block.fetch_add(kChunkBlocks, std::memory_order_relaxed);
       if (begin >= visible.size()) break;
@@ -512,20 +618,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
         VoxelBlock& block = *visible[b];
         const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
         const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
-        Voxel* voxel = block.voxels.data();
-        for (int z = 0; z < kBlockSide; ++z) {
-          for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
-            // Voxel centres stepped along x one addition at a time (as they always were:
-            // the same bits whichever kernel reads them).
-            Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
-            for (int x = 0; x < kBlockSide; ++x, p += step_x) {
-              row.x[x] = p.x();
-              row.y[x] = p.y();
-              row.z[x] = p.z();
-            }
-            count += update_row(f, row, voxel);
-          }
-        }
+        count += update_block(f, corner_in_camera, block.voxels.data());
       }
     }
     updated[chunk] = count;
