@@ -36,11 +36,15 @@ using internal::PackKey;
 namespace {
 
 // Appends the keys of the blocks a segment (block units, a to b) passes through, in order
-// (Amanatides & Woo 1987 grid traversal), skipping those among the last few appended: the
-// segments of neighbouring pixels mostly cross the same blocks.
+// (Amanatides & Woo 1987 grid traversal), skipping those already appended among a few
+// recent ones: the segments of neighbouring pixels mostly cross the same blocks. The recent
+// ones are kept one per position of the key modulo 4 along each axis, so any 4×4×4 group of
+// neighbouring blocks is remembered whole and a lookup is one comparison. (Only which
+// duplicates reach the list depends on it; the serial pass drops the rest, keeping the
+// order of first appearance.)
 class SegmentBlocks {
  public:
-  explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) {}
+  explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) { recent_.fill(~uint64_t{0}); }
 
   void Walk(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
     int cell[3], step[3];
@@ -76,22 +80,14 @@ class SegmentBlocks {
   void Add(int x, int y, int z) {
     if (!KeyInRange(x, y, z)) return;
     const uint64_t key = PackKey(x, y, z);
-    for (const uint64_t r : recent_) {
-      if (r == key) return;
-    }
-    recent_[next_] = key;
-    next_ = (next_ + 1) % recent_.size();
+    uint64_t& slot = recent_[(x & 3) | ((y & 3) << 2) | ((z & 3) << 4)];
+    if (slot == key) return;
+    slot = key;
     out_.push_back(key);
   }
 
   std::vector<uint64_t>& out_;
-  std::array<uint64_t, 16> recent_ = MakeRecent();
-  size_t next_ = 0;
-  static std::array<uint64_t, 16> MakeRecent() {
-    std::array<uint64_t, 16> r;
-    r.fill(~uint64_t{0});  // no valid packed key has all 64 bits set
-    return r;
-  }
+  std::array<uint64_t, 64> recent_;  // ~0: no valid packed key has all 64 bits set
 };
 
 BlockKey Unpack(uint64_t key) {
@@ -508,7 +504,12 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
 
   const Eigen::Matrix3f rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f origin_m = world_from_camera.translation.cast<float>();
-  std::vector<std::vector<uint64_t>> keys(num_threads);
+  std::vector<float>& ray_x = impl.ray_x;  // camera.Unproject(x, ·, 1).x(), per column
+  ray_x.resize(width);
+  for (int x = 0; x < width; ++x) ray_x[x] = (static_cast<float>(x) - camera.cx) / camera.fx;
+  std::vector<std::vector<uint64_t>>& keys = impl.keys;  // kept: no allocation per frame
+  keys.resize(num_threads);
+  for (auto& chunk_keys : keys) chunk_keys.clear();
   internal::RunChunks(num_threads, [&](int chunk) {
     const int rows = (height + stride - 1) / stride;
     const int row_begin = rows * chunk / num_threads, row_end = rows * (chunk + 1) / num_threads;
@@ -517,10 +518,11 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     for (int r = row_begin; r < row_end; ++r) {
       const int y = r * stride;
       const float* row = depth_m.ptr<float>(y);
+      const float ray_y = (static_cast<float>(y) - camera.cy) / camera.fy;  // camera.Unproject at z = 1
       for (int x = 0; x < width; x += stride) {
         const float d = row[x];
         if (!(d >= min_depth_m && d <= max_depth_m)) continue;
-        const Eigen::Vector3f ray = rotation * camera.Unproject(static_cast<float>(x), static_cast<float>(y), 1.0f);
+        const Eigen::Vector3f ray = rotation * Eigen::Vector3f(ray_x[x], ray_y, 1.0f);
         const float near_m = std::max(d - truncation_m, 0.0f);
         walker.Walk((origin_m + near_m * ray) * inv_block, (origin_m + (d + truncation_m) * ray) * inv_block);
       }
@@ -530,7 +532,8 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   // Serial: the hash is never mutated concurrently. The visible list is deduplicated by the
   // stamp of this call.
   const uint32_t stamp = ++impl.integrate_count;
-  std::vector<VoxelBlock*> visible;
+  std::vector<VoxelBlock*>& visible = impl.visible;
+  visible.clear();
   const size_t blocks_before = impl.blocks.size();
   for (const auto& chunk_keys : keys) {
     for (const uint64_t key : chunk_keys) {

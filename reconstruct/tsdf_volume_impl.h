@@ -67,6 +67,11 @@ struct TsdfVolume::Impl {
   uint32_t integrate_count = 0;
   // 1 / (w + 1) for w = 0 … max_weight (Integrate).
   std::vector<float> inv_count;
+  // Integrate's scratch, kept between calls: the block keys each thread's rays crossed, the
+  // visible blocks, the viewing ray's x per image column.
+  std::vector<std::vector<uint64_t>> keys;
+  std::vector<VoxelBlock*> visible;
+  std::vector<float> ray_x;
 
   VoxelBlock* Find(uint64_t packed) const {
     const auto it = index.find(packed);
