@@ -11,11 +11,17 @@
 // different angles only changes the slope of the field away from it. It needs one
 // projection per voxel and no search for the nearest surface point, which is what keeps
 // fusion at frame rate.
+//
+// Speed: the update runs a row of 8 voxels (along x) at once with AVX2 where the CPU has it
+// (checked at run time: the binary stays portable), else the scalar row it was written from;
+// both make the same floating-point operations in the same order and write the same bits
+// (tsdf_volume_test). On eq3 (640×480, 5 mm voxels) 71 % of the 2.5 M voxels visited per
+// frame are updated, so culling rows or blocks would save little: the work is the update.
 
 #include <algorithm>
 #include <array>
-#include <cassert>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 
