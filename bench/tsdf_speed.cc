@@ -4,11 +4,13 @@
 // resolution (the ICP reference) and at half resolution.
 //
 //   bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] [--no-colour]
-//                         [--repeat R]
+//                         [--repeat R] [--dump FILE]
 //
 // SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
 // fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
-// Prints one line per frame and the median and mean of each column.
+// Prints one line per frame and the median and mean of each column. --dump writes the final
+// volume (every block sorted by key: 3 int32 key, then its 512 voxels as stored, 12 bytes
+// each) so that two builds' volumes can be compared voxel by voxel.
 
 #include <algorithm>
 #include <chrono>
@@ -16,6 +18,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <exception>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -54,12 +57,13 @@ int Run(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] "
-                 "[--no-colour] [--repeat R]\n");
+                 "[--no-colour] [--repeat R] [--dump FILE]\n");
     return 1;
   }
   const std::string folder = argv[1];
   int frames = 60, threads = 2, repeat = 1;
   bool colour = true;
+  std::string dump;
   hw::reconstruct::TsdfOptions options;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
@@ -76,6 +80,7 @@ int Run(int argc, char** argv) {
     else if (a == "--truncation") options.truncation_m = std::atof(next());
     else if (a == "--no-colour") colour = false;
     else if (a == "--repeat") repeat = std::max(1, std::atoi(next()));
+    else if (a == "--dump") dump = next();
     else {
       std::fprintf(stderr, "bench_tsdf_speed: unknown option %s\n", a.c_str());
       return 1;
@@ -102,8 +107,8 @@ int Run(int argc, char** argv) {
               camera.width, camera.height, options.voxel_size_m, options.truncation_m, threads,
               colour && rig.rgb ? "yes" : "no");
   std::printf("wall ms per call, and (cpu) process CPU ms per call summed over its threads\n");
-  std::printf("%5s %16s %16s %16s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
-              "ray 1/2 (cpu)", "blocks", "visible", "valid%", "MiB");
+  std::printf("%5s %16s %16s %16s %8s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
+              "ray 1/2 (cpu)", "blocks", "visible", "kvoxels", "valid%", "MiB");
   std::vector<double> integrate_ms, raycast_ms, half_ms, integrate_cpu, raycast_cpu, half_cpu;
   const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
   for (int i = 0; i < n; ++i) {
@@ -165,9 +170,10 @@ int Run(int argc, char** argv) {
     integrate_cpu.push_back(integrate_end_cpu - c0);
     raycast_cpu.push_back(c2 - c1);
     half_cpu.push_back(c3 - c2);
-    std::printf("%5d %7.2f (%6.2f) %7.2f (%6.2f) %7.2f (%6.2f) %8zu %8d %7.1f %7.1f\n", i, integrate_ms.back(),
-                integrate_cpu.back(), raycast_ms.back(), raycast_cpu.back(), half_ms.back(), half_cpu.back(),
-                volume.NumBlocks(), stats.blocks_visible,
+    std::printf("%5d %7.2f (%6.2f) %7.2f (%6.2f) %7.2f (%6.2f) %8zu %8d %8lld %7.1f %7.1f\n", i,
+                integrate_ms.back(), integrate_cpu.back(), raycast_ms.back(), raycast_cpu.back(), half_ms.back(),
+                half_cpu.back(), volume.NumBlocks(), stats.blocks_visible,
+                static_cast<long long>(stats.voxels_updated / 1000),
                 100.0 * map.NumValid() / static_cast<double>(map.points.size()),
                 static_cast<double>(volume.MemoryBytes()) / (1 << 20));
   }
@@ -178,6 +184,22 @@ int Run(int argc, char** argv) {
   Summary("integrate cpu", integrate_cpu);
   Summary("raycast full cpu", raycast_cpu);
   Summary("raycast half cpu", half_cpu);
+  if (!dump.empty()) {
+    std::vector<const hw::reconstruct::VoxelBlock*> blocks;
+    volume.ForEachBlock([&](const hw::reconstruct::VoxelBlock& block) { blocks.push_back(&block); });
+    std::sort(blocks.begin(), blocks.end(), [](const auto* a, const auto* b) {
+      return std::lexicographical_compare(a->key.data(), a->key.data() + 3, b->key.data(), b->key.data() + 3);
+    });
+    std::ofstream out(dump, std::ios::binary);
+    for (const auto* block : blocks) {
+      out.write(reinterpret_cast<const char*>(block->key.data()), 3 * sizeof(int));
+      out.write(reinterpret_cast<const char*>(block->voxels.data()), sizeof(block->voxels));
+    }
+    if (!out) {
+      std::fprintf(stderr, "bench_tsdf_speed: cannot write %s\n", dump.c_str());
+      return 1;
+    }
+  }
   return 0;
 }
 

@@ -11,11 +11,23 @@
 // different angles only changes the slope of the field away from it. It needs one
 // projection per voxel and no search for the nearest surface point, which is what keeps
 // fusion at frame rate.
+//
+// Speed: the update runs a row of 8 voxels (along x) at once with AVX2 where the CPU has it
+// (checked at run time: the binary stays portable), else the scalar row it was written from;
+// both make the same floating-point operations in the same order and write the same bits
+// (tsdf_volume_test). On eq3 (640×480, 5 mm voxels) 71 % of the 2.5 M voxels visited per
+// frame are updated, so culling rows or blocks would save little: the work is the update.
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
+
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#endif
 
 #include <Eigen/Geometry>
 
@@ -30,11 +42,15 @@ using internal::PackKey;
 namespace {
 
 // Appends the keys of the blocks a segment (block units, a to b) passes through, in order
-// (Amanatides & Woo 1987 grid traversal), skipping those among the last few appended: the
-// segments of neighbouring pixels mostly cross the same blocks.
+// (Amanatides & Woo 1987 grid traversal), skipping those already appended among a few
+// recent ones: the segments of neighbouring pixels mostly cross the same blocks. The recent
+// ones are kept one per position of the key modulo 4 along each axis, so any 4×4×4 group of
+// neighbouring blocks is remembered whole and a lookup is one comparison. (Only which
+// duplicates reach the list depends on it; the serial pass drops the rest, keeping the
+// order of first appearance.)
 class SegmentBlocks {
  public:
-  explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) {}
+  explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) { recent_.fill(~uint64_t{0}); }
 
   void Walk(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
     int cell[3], step[3];
@@ -70,22 +86,14 @@ class SegmentBlocks {
   void Add(int x, int y, int z) {
     if (!KeyInRange(x, y, z)) return;
     const uint64_t key = PackKey(x, y, z);
-    for (const uint64_t r : recent_) {
-      if (r == key) return;
-    }
-    recent_[next_] = key;
-    next_ = (next_ + 1) % recent_.size();
+    uint64_t& slot = recent_[(x & 3) | ((y & 3) << 2) | ((z & 3) << 4)];
+    if (slot == key) return;
+    slot = key;
     out_.push_back(key);
   }
 
   std::vector<uint64_t>& out_;
-  std::array<uint64_t, 16> recent_ = MakeRecent();
-  size_t next_ = 0;
-  static std::array<uint64_t, 16> MakeRecent() {
-    std::array<uint64_t, 16> r;
-    r.fill(~uint64_t{0});  // no valid packed key has all 64 bits set
-    return r;
-  }
+  std::array<uint64_t, 64> recent_;  // ~0: no valid packed key has all 64 bits set
 };
 
 BlockKey Unpack(uint64_t key) {
@@ -95,6 +103,373 @@ BlockKey Unpack(uint64_t key) {
   };
   return {field(key >> 42), field(key >> 21), field(key)};
 }
+
+// What the per-voxel update needs of one frame (Integrate's constants).
+struct FrameParams {
+  const float* depth;  // depth_m's pixels, depth_step floats per row
+  size_t depth_step;
+  float fx, fy, cx, cy;
+  float u_limit, v_limit;  // nearest pixel inside the image: u in (−0.5, u_limit)
+  float u_inner, v_inner;  // the 2×2 pixels of bilinear depth inside: u in [0, u_inner)
+  float min_depth_m, max_depth_m;
+  float truncation_m, half_truncation_m, inv_truncation;
+  float edge_slope_per_m;
+  float max_weight;
+  const float* inv_count;  // 1 / (w + 1) for whole weights 0 … max_weight
+  // Colour (colour_rgb null: none).
+  const std::uint8_t* colour_rgb;
+  size_t colour_step;  // bytes per row
+  int colour_width, colour_height;
+  float colour_rotation[9];  // colour_from_camera, row-major
+  float colour_translation[3];
+  float colour_fx, colour_fy, colour_cx, colour_cy;
+  float colour_u_limit, colour_v_limit;
+  int max_colour_weight;
+  // Voxel steps along the world axes, in the camera frame (m).
+  float step_x[3], step_y[3], step_z[3];
+};
+
+// The camera-frame centres of one row of kBlockSide voxels (x, y, z of each).
+struct RowPoints {
+  alignas(32) float x[kBlockSide];
+  alignas(32) float y[kBlockSide];
+  alignas(32) float z[kBlockSide];
+};
+
+// Updates one row of kBlockSide voxels (consecutive in x) with the frame; returns how many
+// were updated. The reference implementation: UpdateRowAvx2 must give the same bits.
+int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
+  int count = 0;
+  for (int x = 0; x < kBlockSide; ++x, ++voxel) {
+    const float pz = row.z[x];
+    if (!(pz > 0)) continue;
+    const float inv_z = 1.0f / pz;
+    const float u = f.fx * row.x[x] * inv_z + f.cx, v = f.fy * row.y[x] * inv_z + f.cy;
+    if (!(u > -0.5f && u < f.u_limit && v > -0.5f && v < f.v_limit)) continue;
+    float d = f.depth[static_cast<size_t>(v + 0.5f) * f.depth_step + static_cast<size_t>(u + 0.5f)];
+    if (!(d >= f.min_depth_m && d <= f.max_depth_m)) continue;
+    // Bilinear depth can move d by at most the spread it accepts (below): beyond that margin
+    // around the band the voxel is free space (tsdf 1) or hidden either way.
+    const float margin_m = f.truncation_m + f.half_truncation_m + d * f.edge_slope_per_m;
+    if (d - pz < -margin_m) continue;
+    if (d - pz < margin_m && u >= 0 && v >= 0 && u < f.u_inner && v < f.v_inner) {
+      // Bilinear depth where the four pixels around lie on one surface: the nearest pixel's
+      // depth alone would be off by up to half a pixel times the depth slope (a quarter
+      // voxel on a 45° wall). One surface: a spread below half a truncation plus what a
+      // surface at up to 76° (slope 4) to the view spans over a pixel; a larger jump is a
+      // depth edge, where interpolating would invent a surface between the two.
+      const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+      const float* d0 = f.depth + static_cast<size_t>(y0) * f.depth_step + x0;
+      const float* d1 = d0 + f.depth_step;
+      const float lo = std::min(std::min(d0[0], d0[1]), std::min(d1[0], d1[1]));
+      const float hi = std::max(std::max(d0[0], d0[1]), std::max(d1[0], d1[1]));
+      // (NaN fails every comparison: such a pixel keeps the nearest depth.)
+      if (lo >= f.min_depth_m && hi <= f.max_depth_m && hi - lo < f.half_truncation_m + lo * f.edge_slope_per_m &&
+          d0[0] == d0[0] && d0[1] == d0[1] && d1[0] == d1[0] && d1[1] == d1[1]) {
+        const float a = u - static_cast<float>(x0), c = v - static_cast<float>(y0);
+        const float top = d0[0] + a * (d0[1] - d0[0]), bottom = d1[0] + a * (d1[1] - d1[0]);
+        d = top + c * (bottom - top);
+      }
+    }
+    const float sdf_m = d - pz;
+    if (sdf_m < -f.truncation_m) continue;  // hidden behind the surface: unknown
+    const float tsdf = std::min(1.0f, sdf_m * f.inv_truncation);
+    const float w = voxel->weight;
+    const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
+    const float inv = static_cast<float>(wi) == w ? f.inv_count[wi] : 1.0f / (w + 1);
+    voxel->sdf = (voxel->sdf * w + tsdf) * inv;
+    voxel->weight = std::min(w + 1, f.max_weight);
+    ++count;
+    if (f.colour_rgb == nullptr || sdf_m >= f.truncation_m) continue;
+    const float* r = f.colour_rotation;
+    // Summed as Eigen's rotation * p + translation (which it replaced): the same pixel.
+    const float qx = (r[0] * row.x[x] + (r[1] * row.y[x] + r[2] * pz)) + f.colour_translation[0];
+    const float qy = (r[3] * row.x[x] + (r[4] * row.y[x] + r[5] * pz)) + f.colour_translation[1];
+    const float qz = (r[6] * row.x[x] + (r[7] * row.y[x] + r[8] * pz)) + f.colour_translation[2];
+    if (!(qz > 0)) continue;
+    const float inv_qz = 1.0f / qz;
+    const float cu = f.colour_fx * qx * inv_qz + f.colour_cx, cv = f.colour_fy * qy * inv_qz + f.colour_cy;
+    if (!(cu > -0.5f && cu < f.colour_u_limit && cv > -0.5f && cv < f.colour_v_limit)) continue;
+    const auto* rgb = f.colour_rgb + static_cast<size_t>(cv + 0.5f) * f.colour_step + 3 * static_cast<size_t>(cu + 0.5f);
+    const int cw = voxel->colour_weight;
+    const float inv_cw = f.inv_count[cw];  // cw <= min(max_weight, 255)
+    for (int k = 0; k < 3; ++k) {
+      const float mean = (static_cast<float>(voxel->colour[k]) * static_cast<float>(cw) + rgb[k]) * inv_cw;
+      voxel->colour[k] = static_cast<std::uint8_t>(mean + 0.5f);
+    }
+    voxel->colour_weight = static_cast<std::uint8_t>(std::min(cw + 1, f.max_colour_weight));
+  }
+  return count;
+}
+
+// Updates the kernel voxels of a block whose voxel (0, 0, 0) is at corner_in_camera (m);
+// returns how many were updated. The reference for UpdateBlockAvx2.
+int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_camera, Voxel* voxel) {
+  const Eigen::Vector3f step_x(f.step_x[0], f.step_x[1], f.step_x[2]);
+  const Eigen::Vector3f step_y(f.step_y[0], f.step_y[1], f.step_y[2]);
+  const Eigen::Vector3f step_z(f.step_z[0], f.step_z[1], f.step_z[2]);
+  int count = 0;
+  RowPoints row;
+  for (int z = 0; z < kBlockSide; ++z) {
+    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+      // Voxel centres stepped along x one addition at a time (as they always were: the
+      // SIMD kernel makes the same additions, so both see the same bits).
+      Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
+      for (int x = 0; x < kBlockSide; ++x, p += step_x) {
+        row.x[x] = p.x();
+        row.y[x] = p.y();
+        row.z[x] = p.z();
+      }
+      count += UpdateRowScalar(f, row, voxel);
+    }
+  }
+  return count;
+}
+
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define HW_TSDF_AVX2 1
+
+// UpdateRowScalar on the 8 voxels at once (AVX2; the binary stays portable: called only
+// where the CPU has it). Same operations in the same order, no FMA (the target has none, so
+// the compiler cannot contract a·b + c): the same bits as the scalar row. The 8 voxels (96
+// bytes, AoS) are loaded as three registers, split into sdf / weight / colour word and
+// merged back with blends and permutes, and stored whole (lanes not updated keep their bits).
+__attribute__((target("avx2"))) inline __m256 EvenLanes(__m256 lo4, __m256 hi4) {
+  // [l0 r0 l1 r1 | l2 r2 l3 r3], [l4 r4 … | …] → [l0 … l7]
+  return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo4, hi4, 0x88)), 0xD8));
+}
+__attribute__((target("avx2"))) inline __m256 OddLanes(__m256 lo4, __m256 hi4) {  // → [r0 … r7]
+  return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo4, hi4, 0xDD)), 0xD8));
+}
+
+__attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const FrameParams& f, __m256 px, __m256 py,
+                                                                        __m256 pz, Voxel* voxel) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 in_front = _mm256_cmp_ps(pz, zero, _CMP_GT_OQ);
+  if (_mm256_movemask_ps(in_front) == 0) return 0;
+  const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), pz);
+  const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.fx), px), inv_z), _mm256_set1_ps(f.cx));
+  const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.fy), py), inv_z), _mm256_set1_ps(f.cy));
+  const __m256 minus_half = _mm256_set1_ps(-0.5f), half = _mm256_set1_ps(0.5f);
+  __m256 mask = _mm256_and_ps(in_front, _mm256_and_ps(_mm256_cmp_ps(u, minus_half, _CMP_GT_OQ),
+                                                     _mm256_cmp_ps(u, _mm256_set1_ps(f.u_limit), _CMP_LT_OQ)));
+  mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(v, minus_half, _CMP_GT_OQ),
+                                           _mm256_cmp_ps(v, _mm256_set1_ps(f.v_limit), _CMP_LT_OQ)));
+  if (_mm256_movemask_ps(mask) == 0) return 0;
+  // The 2×2 pixels around the projection, read as two pixel pairs per voxel (four 64-bit
+  // gathers of 4 lanes: half the elements of eight 32-bit gathers), wherever they lie in the
+  // image; the nearest pixel is one of them. Lanes outside a mask compute garbage indices
+  // but load nothing (masked gathers).
+  const __m256i step = _mm256_set1_epi32(static_cast<int>(f.depth_step));
+  const __m256i nx = _mm256_cvttps_epi32(_mm256_add_ps(u, half)), ny = _mm256_cvttps_epi32(_mm256_add_ps(v, half));
+  const __m256i x0 = _mm256_cvttps_epi32(u), y0 = _mm256_cvttps_epi32(v);
+  const __m256 interior = _mm256_and_ps(
+      mask, _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)),
+                          _mm256_and_ps(_mm256_cmp_ps(u, _mm256_set1_ps(f.u_inner), _CMP_LT_OQ),
+                                        _mm256_cmp_ps(v, _mm256_set1_ps(f.v_inner), _CMP_LT_OQ))));
+  const int interior_bits = _mm256_movemask_ps(interior);
+  __m256 d00 = zero, d01 = zero, d10 = zero, d11 = zero, d = zero;
+  if (interior_bits != 0) {
+    const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(y0, step), x0);
+    const __m128i i_lo = _mm256_castsi256_si128(i00), i_hi = _mm256_extracti128_si256(i00, 1);
+    const __m256i m = _mm256_castps_si256(interior);
+    const __m256d m_lo = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(m)));
+    const __m256d m_hi = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(m, 1)));
+    const double* top_row = reinterpret_cast<const double*>(f.depth);
+    const double* bottom_row = reinterpret_cast<const double*>(f.depth + f.depth_step);
+    const __m256d zero_d = _mm256_setzero_pd();
+    // Scale 4: an index counts floats; each lane reads the pixel and its right neighbour.
+    const __m256 t_lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, top_row, i_lo, m_lo, 4));
+    const __m256 t_hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, top_row, i_hi, m_hi, 4));
+    const __m256 b_lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, bottom_row, i_lo, m_lo, 4));
+    const __m256 b_hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero_d, bottom_row, i_hi, m_hi, 4));
+    d00 = EvenLanes(t_lo, t_hi);
+    d01 = OddLanes(t_lo, t_hi);
+    d10 = EvenLanes(b_lo, b_hi);
+    d11 = OddLanes(b_lo, b_hi);
+    // The nearest pixel: (nx, ny) is (x0, y0) plus 0 or 1 along each axis.
+    const __m256 right_x = _mm256_castsi256_ps(_mm256_cmpgt_epi32(nx, x0));
+    const __m256 lower_y = _mm256_castsi256_ps(_mm256_cmpgt_epi32(ny, y0));
+    d = _mm256_blendv_ps(_mm256_blendv_ps(d00, d01, right_x), _mm256_blendv_ps(d10, d11, right_x), lower_y);
+  }
+  if (interior_bits != _mm256_movemask_ps(mask)) {  // on the image's last row or column
+    const __m256 border = _mm256_andnot_ps(interior, mask);
+    const __m256i nearest = _mm256_add_epi32(_mm256_mullo_epi32(ny, step), nx);
+    d = _mm256_blendv_ps(d, _mm256_mask_i32gather_ps(zero, f.depth, nearest, border, 4), border);
+  }
+  const __m256 min_depth = _mm256_set1_ps(f.min_depth_m), max_depth = _mm256_set1_ps(f.max_depth_m);
+  mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, min_depth, _CMP_GE_OQ),
+                                           _mm256_cmp_ps(d, max_depth, _CMP_LE_OQ)));
+  const __m256 slope = _mm256_set1_ps(f.edge_slope_per_m);
+  const __m256 margin = _mm256_add_ps(_mm256_set1_ps(f.truncation_m + f.half_truncation_m), _mm256_mul_ps(d, slope));
+  const __m256 ahead = _mm256_sub_ps(d, pz);
+  // !(ahead < −margin); the operands are finite on mask lanes.
+  mask = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, _mm256_sub_ps(zero, margin), _CMP_NLT_UQ));
+  if (_mm256_movemask_ps(mask) == 0) return 0;
+  const __m256 near = _mm256_and_ps(_mm256_and_ps(mask, interior), _mm256_cmp_ps(ahead, margin, _CMP_LT_OQ));
+  if (_mm256_movemask_ps(near) != 0) {
+    // min/max differ from std::min/max only with a NaN operand, which fails `one` anyway.
+    const __m256 lo = _mm256_min_ps(_mm256_min_ps(d00, d01), _mm256_min_ps(d10, d11));
+    const __m256 hi = _mm256_max_ps(_mm256_max_ps(d00, d01), _mm256_max_ps(d10, d11));
+    __m256 one = _mm256_and_ps(near, _mm256_and_ps(_mm256_cmp_ps(lo, min_depth, _CMP_GE_OQ),
+                                                   _mm256_cmp_ps(hi, max_depth, _CMP_LE_OQ)));
+    one = _mm256_and_ps(one, _mm256_cmp_ps(_mm256_sub_ps(hi, lo),
+                                           _mm256_add_ps(_mm256_set1_ps(f.half_truncation_m), _mm256_mul_ps(lo, slope)),
+                                           _CMP_LT_OQ));
+    one = _mm256_and_ps(one, _mm256_and_ps(_mm256_cmp_ps(d00, d01, _CMP_ORD_Q), _mm256_cmp_ps(d10, d11, _CMP_ORD_Q)));
+    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0)), c = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
+    const __m256 top = _mm256_add_ps(d00, _mm256_mul_ps(a, _mm256_sub_ps(d01, d00)));
+    const __m256 bottom = _mm256_add_ps(d10, _mm256_mul_ps(a, _mm256_sub_ps(d11, d10)));
+    d = _mm256_blendv_ps(d, _mm256_add_ps(top, _mm256_mul_ps(c, _mm256_sub_ps(bottom, top))), one);
+  }
+  const __m256 sdf_m = _mm256_sub_ps(d, pz);
+  const __m256 truncation = _mm256_set1_ps(f.truncation_m);
+  mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, _mm256_sub_ps(zero, truncation), _CMP_NLT_UQ));
+  const int updated = _mm256_movemask_ps(mask);
+  if (updated == 0) return 0;
+
+  // Split the AoS row: dword k of the 24 is component k % 3 of voxel k / 3, in register
+  // k / 8 at lane k % 8. Blending the three registers gathers one component's 8 dwords in
+  // one register (lane j from the register where it holds that component), a permute puts
+  // them in voxel order.
+  float* raw = reinterpret_cast<float*>(voxel);
+  const __m256 r0 = _mm256_loadu_ps(raw), r1 = _mm256_loadu_ps(raw + 8), r2 = _mm256_loadu_ps(raw + 16);
+  const __m256i order0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
+  const __m256i order1 = _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6);
+  const __m256i order2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
+  const __m256 old_sdf = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x92), r2, 0x24), order0);
+  const __m256 weight = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x24), r2, 0x49), order1);
+  __m256i colour_word = _mm256_castps_si256(
+      _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x49), r2, 0x92), order2));
+
+  const __m256 unit = _mm256_set1_ps(1.0f);
+  const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf_m, _mm256_set1_ps(f.inv_truncation)), unit);
+  const __m256 weight_1 = _mm256_add_ps(weight, unit);
+  // 1 / (w + 1) rounded once: the value inv_count holds for a whole w.
+  const __m256 inv = _mm256_div_ps(unit, weight_1);
+  const __m256 new_sdf = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(old_sdf, weight), tsdf), inv);
+  const __m256 new_weight = _mm256_min_ps(weight_1, _mm256_set1_ps(f.max_weight));
+  const __m256 sdf_out = _mm256_blendv_ps(old_sdf, new_sdf, mask);
+  const __m256 weight_out = _mm256_blendv_ps(weight, new_weight, mask);
+
+  if (f.colour_rgb != nullptr) {
+    __m256 paint = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, truncation, _CMP_LT_OQ));
+    if (_mm256_movemask_ps(paint) != 0) {
+      const float* r = f.colour_rotation;
+      __m256 q[3];  // r · p + t, summed as UpdateRowScalar does
+      for (int i = 0; i < 3; ++i) {
+        const __m256 yz = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(r[3 * i + 1]), py),
+                                        _mm256_mul_ps(_mm256_set1_ps(r[3 * i + 2]), pz));
+        q[i] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(r[3 * i]), px), yz),
+                             _mm256_set1_ps(f.colour_translation[i]));
+      }
+      const __m256 qx = q[0], qy = q[1], qz = q[2];
+      paint = _mm256_and_ps(paint, _mm256_cmp_ps(qz, zero, _CMP_GT_OQ));
+      const __m256 inv_qz = _mm256_div_ps(unit, qz);
+      const __m256 cu = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fx), qx), inv_qz),
+                                      _mm256_set1_ps(f.colour_cx));
+      const __m256 cv = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fy), qy), inv_qz),
+                                      _mm256_set1_ps(f.colour_cy));
+      paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cu, minus_half, _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(cu, _mm256_set1_ps(f.colour_u_limit), _CMP_LT_OQ)));
+      paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cv, minus_half, _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(cv, _mm256_set1_ps(f.colour_v_limit), _CMP_LT_OQ)));
+      if (_mm256_movemask_ps(paint) != 0) {
+        // The pixel's 3 bytes read as one dword; the image's very last pixel from one byte
+        // earlier (then shifted), so that no read passes the end of the image.
+        const __m256i offset = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(cv, half)),
+                               _mm256_set1_epi32(static_cast<int>(f.colour_step))),
+            _mm256_mullo_epi32(_mm256_cvttps_epi32(_mm256_add_ps(cu, half)), _mm256_set1_epi32(3)));
+        const int last = static_cast<int>(static_cast<size_t>(f.colour_height - 1) * f.colour_step) +
+                         3 * (f.colour_width - 1) - 1;
+        const __m256i safe = _mm256_min_epi32(offset, _mm256_set1_epi32(last));
+        const __m256i shift = _mm256_slli_epi32(_mm256_sub_epi32(offset, safe), 3);
+        const __m256i rgb = _mm256_srlv_epi32(
+            _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(f.colour_rgb), safe,
+                                        _mm256_castps_si256(paint), 1),
+            shift);
+        const __m256i byte = _mm256_set1_epi32(0xff);
+        const __m256i cw = _mm256_srli_epi32(colour_word, 24);
+        const __m256 cw_f = _mm256_cvtepi32_ps(cw);
+        const __m256 inv_cw = _mm256_div_ps(unit, _mm256_add_ps(cw_f, unit));  // = inv_count[cw]
+        __m256i painted = _mm256_slli_epi32(
+            _mm256_min_epi32(_mm256_add_epi32(cw, _mm256_set1_epi32(1)), _mm256_set1_epi32(f.max_colour_weight)), 24);
+        for (int k = 0; k < 3; ++k) {
+          const __m256 old_k = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(colour_word, 8 * k), byte));
+          const __m256 new_k = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(rgb, 8 * k), byte));
+          const __m256 mean = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(old_k, cw_f), new_k), inv_cw);
+          const __m256i rounded = _mm256_cvttps_epi32(_mm256_add_ps(mean, half));
+          painted = _mm256_or_si256(painted, _mm256_slli_epi32(rounded, 8 * k));
+        }
+        colour_word = _mm256_castps_si256(
+            _mm256_blendv_ps(_mm256_castsi256_ps(colour_word), _mm256_castsi256_ps(painted), paint));
+      }
+    }
+  }
+
+  // Merge back: lane j of register R holds component (j + 2R) % 3 of its voxel.
+  const __m256i back0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
+  const __m256i back1 = _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2);
+  const __m256i back2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
+  const __m256 a0 = _mm256_permutevar8x32_ps(sdf_out, back0);
+  const __m256 a1 = _mm256_permutevar8x32_ps(weight_out, back1);
+  const __m256 a2 = _mm256_permutevar8x32_ps(_mm256_castsi256_ps(colour_word), back2);
+  _mm256_storeu_ps(raw, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x92), a2, 0x24));
+  _mm256_storeu_ps(raw + 8, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x24), a2, 0x49));
+  _mm256_storeu_ps(raw + 16, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x49), a2, 0x92));
+  return __builtin_popcount(static_cast<unsigned>(updated));
+}
+
+// r[i] lane j → out[j] lane i (8×8 transpose).
+__attribute__((target("avx2"))) inline void Transpose8(const __m256 r[8], __m256 out[8]) {
+  __m256 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm256_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm256_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int i = 0; i < 2; ++i) {
+    u[4 * i] = _mm256_shuffle_ps(t[4 * i], t[4 * i + 2], 0x44);
+    u[4 * i + 1] = _mm256_shuffle_ps(t[4 * i], t[4 * i + 2], 0xEE);
+    u[4 * i + 2] = _mm256_shuffle_ps(t[4 * i + 1], t[4 * i + 3], 0x44);
+    u[4 * i + 3] = _mm256_shuffle_ps(t[4 * i + 1], t[4 * i + 3], 0xEE);
+  }
+  for (int i = 0; i < 4; ++i) {
+    out[i] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x20);
+    out[i + 4] = _mm256_permute2f128_ps(u[i], u[i + 4], 0x31);
+  }
+}
+
+// UpdateBlockScalar with UpdateRowAvx2. The voxel centres of a z slab are made 8 rows at
+// once (lanes over y) with the scalar code's additions in the same order, then transposed
+// into rows (lanes over x).
+__attribute__((target("avx2"))) int UpdateBlockAvx2(const FrameParams& f, const Eigen::Vector3f& corner_in_camera,
+                                                    Voxel* voxel) {
+  const __m256 y_index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  int count = 0;
+  for (int z = 0; z < kBlockSide; ++z) {
+    __m256 rows[3][kBlockSide];
+    for (int i = 0; i < 3; ++i) {
+      __m256 columns[kBlockSide];
+      __m256 p = _mm256_add_ps(
+          _mm256_add_ps(_mm256_set1_ps(corner_in_camera[i]), _mm256_mul_ps(y_index, _mm256_set1_ps(f.step_y[i]))),
+          _mm256_set1_ps(static_cast<float>(z) * f.step_z[i]));
+      const __m256 step = _mm256_set1_ps(f.step_x[i]);
+      for (int x = 0; x < kBlockSide; ++x, p = _mm256_add_ps(p, step)) columns[x] = p;
+      Transpose8(columns, rows[i]);
+    }
+    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+      count += UpdateRowAvx2(f, rows[0][y], rows[1][y], rows[2][y], voxel);
+    }
+  }
+  return count;
+}
+
+bool CpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+#endif
 
 }  // namespace
 
@@ -135,7 +510,12 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
 
   const Eigen::Matrix3f rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f origin_m = world_from_camera.translation.cast<float>();
-  std::vector<std::vector<uint64_t>> keys(num_threads);
+  std::vector<float>& ray_x = impl.ray_x;  // camera.Unproject(x, ·, 1).x(), per column
+  ray_x.resize(width);
+  for (int x = 0; x < width; ++x) ray_x[x] = (static_cast<float>(x) - camera.cx) / camera.fx;
+  std::vector<std::vector<uint64_t>>& keys = impl.keys;  // kept: no allocation per frame
+  keys.resize(num_threads);
+  for (auto& chunk_keys : keys) chunk_keys.clear();
   internal::RunChunks(num_threads, [&](int chunk) {
     const int rows = (height + stride - 1) / stride;
     const int row_begin = rows * chunk / num_threads, row_end = rows * (chunk + 1) / num_threads;
@@ -144,10 +524,11 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     for (int r = row_begin; r < row_end; ++r) {
       const int y = r * stride;
       const float* row = depth_m.ptr<float>(y);
+      const float ray_y = (static_cast<float>(y) - camera.cy) / camera.fy;  // camera.Unproject at z = 1
       for (int x = 0; x < width; x += stride) {
         const float d = row[x];
         if (!(d >= min_depth_m && d <= max_depth_m)) continue;
-        const Eigen::Vector3f ray = rotation * camera.Unproject(static_cast<float>(x), static_cast<float>(y), 1.0f);
+        const Eigen::Vector3f ray = rotation * Eigen::Vector3f(ray_x[x], ray_y, 1.0f);
         const float near_m = std::max(d - truncation_m, 0.0f);
         walker.Walk((origin_m + near_m * ray) * inv_block, (origin_m + (d + truncation_m) * ray) * inv_block);
       }
@@ -157,7 +538,8 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   // Serial: the hash is never mutated concurrently. The visible list is deduplicated by the
   // stamp of this call.
   const uint32_t stamp = ++impl.integrate_count;
-  std::vector<VoxelBlock*> visible;
+  std::vector<VoxelBlock*>& visible = impl.visible;
+  visible.clear();
   const size_t blocks_before = impl.blocks.size();
   for (const auto& chunk_keys : keys) {
     for (const uint64_t key : chunk_keys) {
@@ -171,117 +553,81 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   stats.blocks_allocated = static_cast<int>(impl.blocks.size() - blocks_before);
   stats.blocks_visible = static_cast<int>(visible.size());
 
-  // 2. Update of the voxels of the visible blocks, in num_threads contiguous chunks (each
-  // block belongs to one chunk: no two threads write one voxel).
+  // 2. Update of the voxels of the visible blocks. Threads take chunks of blocks from a
+  // shared counter (each block belongs to one chunk: no two threads write one voxel; the
+  // result does not depend on which thread takes which): on 2 shared cores a fixed split
+  // waits for the slower half.
   const core::Rigid3d camera_from_world = world_from_camera.Inverse();
   const Eigen::Matrix3f cw_rotation = camera_from_world.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f cw_translation = camera_from_world.translation.cast<float>();
-  const bool with_colour = colour != nullptr && !colour->rgb.empty();
-  Eigen::Matrix3f colour_from_camera_rotation = Eigen::Matrix3f::Identity();
-  Eigen::Vector3f colour_from_camera_translation = Eigen::Vector3f::Zero();
-  if (with_colour) {
-    const core::Rigid3d colour_from_camera = colour->world_from_camera.Inverse() * world_from_camera;
-    colour_from_camera_rotation = colour_from_camera.rotation.toRotationMatrix().cast<float>();
-    colour_from_camera_translation = colour_from_camera.translation.cast<float>();
-  }
-  const float colour_fx = with_colour ? colour->camera.fx : 0, colour_fy = with_colour ? colour->camera.fy : 0;
-  const float colour_cx = with_colour ? colour->camera.cx : 0, colour_cy = with_colour ? colour->camera.cy : 0;
-  const float colour_u_limit = with_colour ? static_cast<float>(colour->camera.width) - 0.5f : 0;
-  const float colour_v_limit = with_colour ? static_cast<float>(colour->camera.height) - 0.5f : 0;
-  const std::uint8_t* colour_rgb = with_colour ? colour->rgb.ptr<std::uint8_t>(0) : nullptr;
-  const size_t colour_step = with_colour ? colour->rgb.step1() : 0;
-  const float max_weight = static_cast<float>(options_.max_weight);
-  const int max_colour_weight = static_cast<int>(std::min(options_.max_weight, 255.0));
-  const float inv_truncation = 1.0f / truncation_m;
-  const float u_limit = static_cast<float>(width) - 0.5f, v_limit = static_cast<float>(height) - 0.5f;
-  const float u_inner = static_cast<float>(width - 1), v_inner = static_cast<float>(height - 1);
-  const float half_truncation_m = 0.5f * truncation_m;
-  const float edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, see below
-  const float fx = camera.fx, fy = camera.fy, cx = camera.cx, cy = camera.cy;
-  const size_t depth_step = depth_m.step1();
-  const float* depth = depth_m.ptr<float>(0);
-
   // 1 / (w + 1) for every weight a voxel can hold (integers up to max_weight): a
   // multiplication instead of a division per voxel.
+  const float max_weight = static_cast<float>(options_.max_weight);
   if (impl.inv_count.empty()) {
     impl.inv_count.resize(static_cast<size_t>(max_weight) + 1);
     for (size_t w = 0; w < impl.inv_count.size(); ++w) impl.inv_count[w] = 1.0f / static_cast<float>(w + 1);
   }
-  const float* inv_count = impl.inv_count.data();
+  FrameParams f{};
+  f.depth = depth_m.ptr<float>(0);
+  f.depth_step = depth_m.step1();
+  f.fx = camera.fx;
+  f.fy = camera.fy;
+  f.cx = camera.cx;
+  f.cy = camera.cy;
+  f.u_limit = static_cast<float>(width) - 0.5f;
+  f.v_limit = static_cast<float>(height) - 0.5f;
+  f.u_inner = static_cast<float>(width - 1);
+  f.v_inner = static_cast<float>(height - 1);
+  f.min_depth_m = min_depth_m;
+  f.max_depth_m = max_depth_m;
+  f.truncation_m = truncation_m;
+  f.half_truncation_m = 0.5f * truncation_m;
+  f.inv_truncation = 1.0f / truncation_m;
+  f.edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, UpdateRowScalar
+  f.max_weight = max_weight;
+  f.inv_count = impl.inv_count.data();
+  f.max_colour_weight = static_cast<int>(std::min(options_.max_weight, 255.0));
+  if (colour != nullptr && !colour->rgb.empty()) {
+    const core::Rigid3d colour_from_camera = colour->world_from_camera.Inverse() * world_from_camera;
+    const Eigen::Matrix3f r = colour_from_camera.rotation.toRotationMatrix().cast<float>();
+    for (int i = 0; i < 9; ++i) f.colour_rotation[i] = r(i / 3, i % 3);
+    for (int i = 0; i < 3; ++i) f.colour_translation[i] = static_cast<float>(colour_from_camera.translation[i]);
+    f.colour_rgb = colour->rgb.ptr<std::uint8_t>(0);
+    f.colour_step = colour->rgb.step1();
+    f.colour_width = colour->camera.width;
+    f.colour_height = colour->camera.height;
+    f.colour_fx = colour->camera.fx;
+    f.colour_fy = colour->camera.fy;
+    f.colour_cx = colour->camera.cx;
+    f.colour_cy = colour->camera.cy;
+    f.colour_u_limit = static_cast<float>(colour->camera.width) - 0.5f;
+    f.colour_v_limit = static_cast<float>(colour->camera.height) - 0.5f;
+  }
+  // Voxel steps along the world axes, in the camera frame.
+  for (int i = 0; i < 3; ++i) {
+    f.step_x[i] = cw_rotation(i, 0) * voxel_m;
+    f.step_y[i] = cw_rotation(i, 1) * voxel_m;
+    f.step_z[i] = cw_rotation(i, 2) * voxel_m;
+  }
+  int (*update_block)(const FrameParams&, const Eigen::Vector3f&, Voxel*) = UpdateBlockScalar;
+#ifdef HW_TSDF_AVX2
+  if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_block = UpdateBlockAvx2;
+#endif
+
   std::vector<int64_t> updated(num_threads, 0);
+  std::atomic<size_t> next_block{0};
+  constexpr size_t kChunkBlocks = 32;
   internal::RunChunks(num_threads, [&](int chunk) {
-    const size_t begin = visible.size() * chunk / num_threads;
-    const size_t end = visible.size() * (chunk + 1) / num_threads;
-    // Voxel steps along the world axes, in the camera frame.
-    const Eigen::Vector3f step_x = cw_rotation.col(0) * voxel_m;
-    const Eigen::Vector3f step_y = cw_rotation.col(1) * voxel_m;
-    const Eigen::Vector3f step_z = cw_rotation.col(2) * voxel_m;
     int64_t count = 0;
-    for (size_t b = begin; b < end; ++b) {
-      VoxelBlock& block = *visible[b];
-      const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
-      const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
-      Voxel* voxel = block.voxels.data();
-      for (int z = 0; z < kBlockSide; ++z) {
-        for (int y = 0; y < kBlockSide; ++y) {
-          Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
-          for (int x = 0; x < kBlockSide; ++x, ++voxel, p += step_x) {
-            if (!(p.z() > 0)) continue;
-            const float inv_z = 1.0f / p.z();
-            const float u = fx * p.x() * inv_z + cx, v = fy * p.y() * inv_z + cy;
-            if (!(u > -0.5f && u < u_limit && v > -0.5f && v < v_limit)) continue;
-            float d = depth[static_cast<size_t>(v + 0.5f) * depth_step + static_cast<size_t>(u + 0.5f)];
-            if (!(d >= min_depth_m && d <= max_depth_m)) continue;
-            // Bilinear depth can move d by at most the spread it accepts (below): beyond
-            // that margin around the band the voxel is free space (tsdf 1) or hidden
-            // either way, and most voxels of a block are one or the other.
-            const float margin_m = truncation_m + half_truncation_m + d * edge_slope_per_m;
-            if (d - p.z() < -margin_m) continue;
-            if (d - p.z() < margin_m && u >= 0 && v >= 0 && u < u_inner && v < v_inner) {
-              // Bilinear depth where the four pixels around lie on one surface: the nearest
-              // pixel's depth alone would be off by up to half a pixel times the depth slope
-              // (a quarter voxel on a 45° wall). One surface: a spread below half a
-              // truncation plus what a surface at up to 76° (slope 4) to the view spans
-              // over a pixel; a larger jump is a depth edge, where interpolating would
-              // invent a surface between the two.
-              const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-              const float* d0 = depth + static_cast<size_t>(y0) * depth_step + x0;
-              const float* d1 = d0 + depth_step;
-              const float lo = std::min(std::min(d0[0], d0[1]), std::min(d1[0], d1[1]));
-              const float hi = std::max(std::max(d0[0], d0[1]), std::max(d1[0], d1[1]));
-              // (NaN fails every comparison: such a pixel keeps the nearest depth.)
-              if (lo >= min_depth_m && hi <= max_depth_m && hi - lo < half_truncation_m + lo * edge_slope_per_m &&
-                  d0[0] == d0[0] && d0[1] == d0[1] && d1[0] == d1[0] && d1[1] == d1[1]) {
-                const float a = u - static_cast<float>(x0), c = v - static_cast<float>(y0);
-                const float top = d0[0] + a * (d0[1] - d0[0]), bottom = d1[0] + a * (d1[1] - d1[0]);
-                d = top + c * (bottom - top);
-              }
-            }
-            const float sdf_m = d - p.z();
-            if (sdf_m < -truncation_m) continue;  // hidden behind the surface: unknown
-            const float tsdf = std::min(1.0f, sdf_m * inv_truncation);
-            const float w = voxel->weight;
-            const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
-            const float inv = static_cast<float>(wi) == w ? inv_count[wi] : 1.0f / (w + 1);
-            voxel->sdf = (voxel->sdf * w + tsdf) * inv;
-            voxel->weight = std::min(w + 1, max_weight);
-            ++count;
-            if (!with_colour || sdf_m >= truncation_m) continue;
-            const Eigen::Vector3f q = colour_from_camera_rotation * p + colour_from_camera_translation;
-            if (!(q.z() > 0)) continue;
-            const float inv_qz = 1.0f / q.z();
-            const float cu = colour_fx * q.x() * inv_qz + colour_cx, cv = colour_fy * q.y() * inv_qz + colour_cy;
-            if (!(cu > -0.5f && cu < colour_u_limit && cv > -0.5f && cv < colour_v_limit)) continue;
-            const auto* rgb = colour_rgb + static_cast<size_t>(cv + 0.5f) * colour_step + 3 * static_cast<size_t>(cu + 0.5f);
-            const int cw = voxel->colour_weight;
-            const float inv_cw = inv_count[cw];  // cw <= min(max_weight, 255)
-            for (int c = 0; c < 3; ++c) {
-              const float mean = (static_cast<float>(voxel->colour[c]) * static_cast<float>(cw) + rgb[c]) * inv_cw;
-              voxel->colour[c] = static_cast<std::uint8_t>(mean + 0.5f);
-            }
-            voxel->colour_weight = static_cast<std::uint8_t>(std::min(cw + 1, max_colour_weight));
-          }
-        }
+    for (;;) {
+      const size_t begin = next_block.fetch_add(kChunkBlocks, std::memory_order_relaxed);
+      if (begin >= visible.size()) break;
+      const size_t end = std::min(begin + kChunkBlocks, visible.size());
+      for (size_t b = begin; b < end; ++b) {
+        VoxelBlock& block = *visible[b];
+        const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
+        const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
+        count += update_block(f, corner_in_camera, block.voxels.data());
       }
     }
     updated[chunk] = count;

@@ -117,8 +117,9 @@ class TsdfVolume {
   // at the frame's farthest depth (every pixel up to 8 apart); the blocks updated are the
   // ones those rays touched this frame; depth is read bilinearly where the four pixels
   // around a voxel's projection lie on one surface, else from the nearest pixel; colour
-  // from the nearest colour pixel. Asserts depth_m's type and size and rgb's (CV_8UC3,
-  // camera size). NaN depth counts as no measurement.
+  // from the nearest colour pixel; an AVX2 kernel where the CPU has one (same bits as the
+  // scalar one). Asserts depth_m's type and size and rgb's (CV_8UC3, camera size). NaN depth
+  // counts as no measurement.
   IntegrateStats Integrate(const cv::Mat& depth_m, const PinholeCamera& camera,
                            const core::Rigid3d& world_from_camera,
                            const ColourView* colour = nullptr);

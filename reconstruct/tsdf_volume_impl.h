@@ -3,6 +3,7 @@
 // Internal to the TSDF sources (tsdf_volume.cc, tsdf_integrate.cc): the block storage and
 // the coarse thread split they share.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <thread>
@@ -26,6 +27,10 @@ inline bool KeyInRange(int x, int y, int z) {
   constexpr int kLimit = 1 << 20;
   return x >= -kLimit && x < kLimit && y >= -kLimit && y < kLimit && z >= -kLimit && z < kLimit;
 }
+
+// Whether Integrate may use its SIMD row kernel where the CPU has one (true). A test hook:
+// the scalar kernel is the reference the SIMD one must match bit for bit.
+inline std::atomic<bool> integrate_simd{true};
 
 // Threads to use for a num_threads option (0: hardware concurrency).
 inline int ResolveThreads(int num_threads) {
@@ -62,6 +67,11 @@ struct TsdfVolume::Impl {
   uint32_t integrate_count = 0;
   // 1 / (w + 1) for w = 0 … max_weight (Integrate).
   std::vector<float> inv_count;
+  // Integrate's scratch, kept between calls: the block keys each thread's rays crossed, the
+  // visible blocks, the viewing ray's x per image column.
+  std::vector<std::vector<uint64_t>> keys;
+  std::vector<VoxelBlock*> visible;
+  std::vector<float> ray_x;
 
   VoxelBlock* Find(uint64_t packed) const {
     const auto it = index.find(packed);

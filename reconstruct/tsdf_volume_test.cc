@@ -1,6 +1,8 @@
 #include "reconstruct/tsdf_volume.h"
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
 #include <set>
 #include <tuple>
@@ -8,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "reconstruct/tsdf_test_support.h"
+#include "reconstruct/tsdf_volume_impl.h"
 
 namespace hw::reconstruct {
 namespace {
@@ -380,6 +383,75 @@ TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
     ASSERT_TRUE(c.has_value());
     EXPECT_EQ(*c, Rgb8(0, 0, 255)) << x;
   }
+}
+
+// Integrate has a SIMD kernel (AVX2, where the CPU has it) and the scalar one it replaces
+// where not; both must write the same bits. A scene with what sends voxels down every
+// branch: depth edges (a sphere before a slanted wall), noise, holes and NaN pixels, a wall
+// filling the image to its last row and column, colour through an offset camera whose image
+// also ends inside the view, and a fractional weight cap (weights that are not whole).
+TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "no AVX2: only the scalar kernel runs";
+#else
+  GTEST_SKIP() << "no SIMD kernel on this architecture";
+#endif
+  const PinholeCamera camera = SmallCamera();
+  std::mt19937 random(7);
+  std::normal_distribution<float> noise(0.0f, 0.003f);
+  std::uniform_int_distribution<int> byte(0, 255), percent(0, 99);
+  TsdfOptions options = SmallOptions(2);
+  options.max_weight = 2.5;
+  TsdfVolume simd(options), scalar(options);
+  const Eigen::Vector3d eyes[] = {{0, 0, 0}, {0.1, -0.05, 0.05}, {-0.08, 0.04, -0.1}, {0.02, 0.1, 0.0}};
+  for (const Eigen::Vector3d& eye : eyes) {
+    const core::Rigid3d pose = test::LookAt(eye, {0.05, 0, 1.1});
+    const cv::Mat wall = test::RenderPlane(camera, pose, Eigen::Vector3d(0.3, 0.1, 1.0), 1.2);
+    const cv::Mat sphere = test::RenderSphere(camera, pose, {0.05, 0.02, 1.0}, 0.15);
+    cv::Mat depth(camera.height, camera.width, CV_32FC1);
+    for (int y = 0; y < camera.height; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const float s = sphere.at<float>(y, x), w = wall.at<float>(y, x);
+        float d = s > 0 && (w <= 0 || s < w) ? s : w;
+        const int drop = percent(random);
+        if (d > 0) d += noise(random);
+        if (drop < 3) d = 0;
+        if (drop == 3) d = std::numeric_limits<float>::quiet_NaN();
+        depth.at<float>(y, x) = d;
+      }
+    }
+    ColourView colour;
+    colour.camera = {150, 110, 118.0f, 119.0f, 74.5f, 54.5f};
+    colour.rgb = cv::Mat(colour.camera.height, colour.camera.width, CV_8UC3);
+    for (int y = 0; y < colour.rgb.rows; ++y) {
+      for (int x = 0; x < 3 * colour.rgb.cols; ++x) colour.rgb.ptr<std::uint8_t>(y)[x] = static_cast<std::uint8_t>(byte(random));
+    }
+    colour.world_from_camera = pose * core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY())),
+                                                    Eigen::Vector3d(0.025, 0.002, 0));
+    internal::integrate_simd = true;
+    const IntegrateStats a = simd.Integrate(depth, camera, pose, &colour);
+    internal::integrate_simd = false;
+    const IntegrateStats b = scalar.Integrate(depth, camera, pose, &colour);
+    internal::integrate_simd = true;
+    EXPECT_GT(a.voxels_updated, 100000);
+    EXPECT_EQ(a.voxels_updated, b.voxels_updated);
+    EXPECT_EQ(a.blocks_visible, b.blocks_visible);
+  }
+  ASSERT_EQ(simd.NumBlocks(), scalar.NumBlocks());
+  int64_t differ = 0, fractional = 0, painted = 0;
+  simd.ForEachBlock([&](const VoxelBlock& block) {
+    const VoxelBlock* other = scalar.FindBlock(block.key);
+    ASSERT_NE(other, nullptr);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const Voxel &p = block.voxels[i], &q = other->voxels[i];
+      differ += std::memcmp(&p, &q, sizeof(Voxel)) != 0;
+      fractional += p.weight == 2.5f;
+      painted += p.colour_weight > 0;
+    }
+  });
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(fractional, 10000);  // the cap was reached: w + 1 = 3.5 was divided by
+  EXPECT_GT(painted, 10000);
 }
 
 TEST(TsdfIntegrate, NothingToFuse) {
