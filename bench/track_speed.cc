@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_timing.h"
 #include "core/scan.h"
 #include "reconstruct/depth_frame.h"
 #include "reconstruct/icp.h"
@@ -30,30 +31,12 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using hw::bench::Clock;
 namespace rc = hw::reconstruct;
 
-double Ms(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
-
-// CPU time of the whole process (all threads), ms: on a shared machine the wall time grows
-// with the other jobs' load; CPU time is what the work costs (at 1 thread, its wall time on
-// an idle core).
-double CpuMs() {
-  timespec t;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
-void Summary(const char* name, std::vector<double> v) {
-  if (v.empty()) return;
-  double sum = 0;
-  for (const double x : v) sum += x;
-  std::sort(v.begin(), v.end());
-  std::printf("%-11s median %8.3f  mean %8.3f  max %8.3f\n", name, v[v.size() / 2],
-              sum / static_cast<double>(v.size()), v.back());
-}
+using hw::bench::CpuMs;
+using hw::bench::Ms;
+using hw::bench::Summary;
 
 int Run(int argc, char** argv) {
   if (argc < 2) {
@@ -189,7 +172,7 @@ int Run(int argc, char** argv) {
   Summary("track ms", track_ms);
   Summary("prep cpu", prepare_cpu);
   Summary("track cpu", track_cpu);
-  Summary("err mm", err_mm);
+  Summary("err", err_mm, " mm");
   return 0;
 }
 

@@ -24,34 +24,18 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "bench/bench_timing.h"
 #include "core/scan.h"
 #include "reconstruct/raycast.h"
 #include "reconstruct/tsdf_volume.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using hw::bench::Clock;
 
-double Ms(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
-
-// CPU time of the whole process (all threads), ms: on a shared machine the wall time of a
-// call grows with the other jobs' load; CPU time / threads is what it costs on idle cores.
-double CpuMs() {
-  timespec t;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
-void Summary(const char* name, std::vector<double> v) {
-  if (v.empty()) return;
-  double sum = 0;
-  for (const double x : v) sum += x;
-  std::sort(v.begin(), v.end());
-  std::printf("%-22s median %7.2f ms  mean %7.2f ms  max %7.2f ms\n", name, v[v.size() / 2],
-              sum / static_cast<double>(v.size()), v.back());
-}
+using hw::bench::CpuMs;
+using hw::bench::Ms;
+using hw::bench::Summary;
 
 int Run(int argc, char** argv) {
   if (argc < 2) {
