@@ -237,7 +237,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
       lost_ = true;
       record.status = FrameStatus::kLost;
       record.blocks = volume_.NumBlocks();
-    frames_.push_back(record);
+      frames_.push_back(record);
       return frames_.back();
     }
     lost_ = false;
