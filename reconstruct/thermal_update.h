@@ -51,10 +51,13 @@ struct OfflineOptions {
   // 3: a Gaussian inlier is rejected with probability 0.27 %; reflections and mis-registered
   // edges (several K off) are far beyond.
   double outlier_sigmas = 3.0;  // [1, 100]
-  // The camera's NETD (< 50 mK for Lepton and A35-class cores): below it the MAD of a few
-  // views is noise, and with 2–3 views the MAD can be 0. Raise it towards the camera's
-  // frame-to-frame offset error when views disagree by more than noise (drift between FFCs).
-  double min_sigma_k = 0.05;  // K, > 0, finite
+  // Floor of the per-view spread: with 2–3 views the MAD can be 0, and views of one region
+  // disagree by more than the NETD (0.03–0.05 K): fixed-pattern and column noise (0.03–0.05 K
+  // after an FFC, growing until the next), the offset drift between FFCs (0.1–0.3 K for
+  // uncooled cores), a pixel's footprint changing with the view. 0.2 K keeps views that differ
+  // by that kind of error, while reflections and misregistered edges (several K) stay far
+  // beyond 3 · 0.2 K.
+  double min_sigma_k = 0.2;  // K, > 0, finite
   std::string Check() const;
 };
 

@@ -117,10 +117,17 @@ TEST(RobustEstimateTest, EmptyAndSingle) {
   EXPECT_EQ(s.std_c, 0);
 }
 
+// The tests below were worked by hand with a 0.05 K floor (a camera's NETD).
+OfflineOptions TightOptions() {
+  OfflineOptions o;
+  o.min_sigma_k = 0.05;
+  return o;
+}
+
 // MAD 0: the scale is min_sigma_k (0.05 K, limit 0.15 K).
 TEST(RobustEstimateTest, AllEqualValuesFallBackToMinSigma) {
   auto obs = Obs({{20.2f, 1}, {20, 0.5f}, {20, 1}, {20.1f, 1}, {20, 0.75f}, {20, 1}, {20, 1}});
-  const OfflineEstimate e = RobustEstimate(obs, OfflineOptions());
+  const OfflineEstimate e = RobustEstimate(obs, TightOptions());
   EXPECT_EQ(e.views, 6);  // 20.1 is within 0.15 K; 20.2 is not
   EXPECT_EQ(e.rejected, 1);
   const double v201 = static_cast<double>(20.1f);
@@ -128,7 +135,7 @@ TEST(RobustEstimateTest, AllEqualValuesFallBackToMinSigma) {
   EXPECT_NEAR(e.confidence, 5.25 / 6, 1e-12);
 
   auto equal = Obs({{20, 1}, {20, 0.5f}, {20, 0.3f}});
-  const OfflineEstimate q = RobustEstimate(equal, OfflineOptions());
+  const OfflineEstimate q = RobustEstimate(equal, TightOptions());
   EXPECT_EQ(q.views, 3);
   EXPECT_EQ(q.value_c, 20);
   EXPECT_EQ(q.std_c, 0);
@@ -156,7 +163,7 @@ TEST(RobustEstimateTest, WeightedMedianDecidesWhatIsAnOutlier) {
   // Three low-confidence views at 20 outnumber one trusted view at 10, but weigh less
   // (0.3 < 1): the median is 10, the MAD 0, and the views at 20 are outliers.
   auto obs = Obs({{20, 0.1f}, {10, 1}, {20, 0.1f}, {20, 0.1f}});
-  const OfflineEstimate e = RobustEstimate(obs, OfflineOptions());
+  const OfflineEstimate e = RobustEstimate(obs, TightOptions());
   EXPECT_EQ(e.views, 1);
   EXPECT_EQ(e.rejected, 3);
   EXPECT_EQ(e.value_c, 10);
@@ -193,7 +200,7 @@ TEST(RobustEstimateTest, RejectsReflectionsAndRecoversTheMean) {
       }
     }
     std::shuffle(obs.begin(), obs.end(), rng);
-    const OfflineEstimate e = RobustEstimate(obs, OfflineOptions());
+    const OfflineEstimate e = RobustEstimate(obs, TightOptions());
     ASSERT_GE(e.rejected, kOutliers) << r;  // all reflections out
     clean_lost += e.rejected - kOutliers;
     EXPECT_LT(e.value_c, kTrue + 1) << r;  // one reflection kept would shift it ≥ 0.15 K
@@ -244,7 +251,7 @@ TEST(RobustEstimateTest, StdMatchesTheSampleStd) {
   EXPECT_NEAR(all.value_c, mean, 1e-9);
   EXPECT_NEAR(all.std_c, sample_std, 1e-9);
   const double standard_error = kSigma / std::sqrt(2.0 * (kViews - 1));
-  const OfflineEstimate cut = RobustEstimate(obs, OfflineOptions());
+  const OfflineEstimate cut = RobustEstimate(obs, TightOptions());
   const double phi3 = std::exp(-4.5) / std::sqrt(2 * M_PI);
   const double truncated = kSigma * std::sqrt(1 - 6 * phi3 / std::erf(3 / std::sqrt(2.0)));
   EXPECT_NEAR(cut.std_c, truncated, 3 * standard_error);
