@@ -4,7 +4,6 @@
 #include <cassert>
 #include <cmath>
 #include <optional>
-#include <unordered_map>
 
 #include <Eigen/Geometry>
 
@@ -12,6 +11,7 @@
 #include "core/ply.h"
 #include "reconstruct/mesh_query.h"
 #include "reconstruct/option_check.h"
+#include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
 
@@ -30,6 +30,7 @@ std::string TemperatureErrorOptions::Check() const {
   if (!(uniform_range_k > 0) || !std::isfinite(uniform_range_k)) {
     return Fail("uniform_range_k", uniform_range_k, "finite and > 0 K");
   }
+  if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
   return "";
 }
 
@@ -112,25 +113,29 @@ void WidenByFieldInBall(const Eigen::Vector3d& a, const Eigen::Vector3d& b, cons
   }
 }
 
-// The model's boundary vertices: those of edges used by exactly one face.
+// The model's boundary vertices: those of edges used by exactly one face. Edges as sorted
+// 64-bit keys (8 bytes per face side, no hash-map nodes: a 4M-vertex model has 23M sides).
 std::vector<Eigen::Vector3d> BoundaryVertices(const std::vector<Eigen::Vector3f>& positions,
                                               const std::vector<Eigen::Vector3i>& faces) {
-  std::unordered_map<uint64_t, int> edge_faces;
-  edge_faces.reserve(faces.size() * 3 / 2 + 1);
-  const auto key = [](int u, int v) {
-    return (static_cast<uint64_t>(std::min(u, v)) << 32) | static_cast<uint32_t>(std::max(u, v));
-  };
+  std::vector<uint64_t> edges;
+  edges.reserve(faces.size() * 3);
   for (const Eigen::Vector3i& face : faces) {
     for (int k = 0; k < 3; ++k) {
       assert(face[k] >= 0 && face[k] < static_cast<int>(positions.size()));
-      ++edge_faces[key(face[k], face[(k + 1) % 3])];
+      const int u = face[k], v = face[(k + 1) % 3];
+      edges.push_back((static_cast<uint64_t>(std::min(u, v)) << 32) | static_cast<uint32_t>(std::max(u, v)));
     }
   }
+  std::sort(edges.begin(), edges.end());
   std::vector<uint8_t> on_boundary(positions.size(), 0);
-  for (const auto& [edge, count] : edge_faces) {
-    if (count != 1) continue;
-    on_boundary[edge >> 32] = 1;
-    on_boundary[edge & 0xffffffffu] = 1;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) {
+      on_boundary[edges[i] >> 32] = 1;
+      on_boundary[edges[i] & 0xffffffffu] = 1;
+    }
+    i = j;
   }
   std::vector<Eigen::Vector3d> out;
   for (size_t i = 0; i < positions.size(); ++i) {
@@ -218,35 +223,38 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
   const TriangleGrid grid(truth.vertices, truth.faces,
                           std::max(options.max_distance_m, options.uniform_radius_m));
   const double r = options.uniform_radius_m;
-  std::vector<int> visited(truth.faces.size(), -1);  // the last model vertex that looked at a face
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = model_positions[i].cast<double>();
-    const auto closest = grid.FindClosest(p, options.max_distance_m);
-    if (!closest) continue;
-    // Strictly closer than the exclusion distance: with edge_exclusion_m = 0 nothing is.
-    if (boundary) {
-      const auto d = boundary->NearestDistance(p, options.edge_exclusion_m);
-      if (d && *d < options.edge_exclusion_m) continue;
-    }
-    const Eigen::Vector3i& face = truth.faces[closest->face];
-    const Eigen::Vector3d t(truth.temperature_c[face[0]], truth.temperature_c[face[1]],
-                            truth.temperature_c[face[2]]);
-    out.truth_c[i] = closest->on_face.weights.dot(t);
+  ForEachBand(static_cast<int>(n), options.num_threads, [&](int begin, int end) {
+    std::vector<int> visited(truth.faces.size(), -1);  // the last model vertex that looked at a face
+    for (int i = begin; i < end; ++i) {
+      const Eigen::Vector3d p = model_positions[i].cast<double>();
+      const auto closest = grid.FindClosest(p, options.max_distance_m);
+      if (!closest) continue;
+      // Strictly closer than the exclusion distance: with edge_exclusion_m = 0 nothing is.
+      if (boundary) {
+        const auto d = boundary->NearestDistance(p, options.edge_exclusion_m);
+        if (d && *d < options.edge_exclusion_m) continue;
+      }
+      const Eigen::Vector3i& face = truth.faces[closest->face];
+      const Eigen::Vector3d t(truth.temperature_c[face[0]], truth.temperature_c[face[1]],
+                              truth.temperature_c[face[2]]);
+      out.truth_c[i] = closest->on_face.weights.dot(t);
 
-    // The range over the ball, stopping as soon as it exceeds uniform_range_k.
-    const Eigen::Vector3d& q = closest->on_face.point;
-    double lo = out.truth_c[i], hi = out.truth_c[i];
-    out.uniform[i] = grid.VisitCandidates(q, r, [&](int f) {
-      if (visited[f] == static_cast<int>(i)) return true;  // binned in several cells
-      visited[f] = static_cast<int>(i);
-      const Eigen::Vector3i& g = truth.faces[f];
-      const Eigen::Vector3d &a = truth.vertices[g[0]], &b = truth.vertices[g[1]], &c = truth.vertices[g[2]];
-      if ((ClosestPointOnTriangle(q, a, b, c) - q).norm() > r) return true;
-      const Eigen::Vector3d tf(truth.temperature_c[g[0]], truth.temperature_c[g[1]], truth.temperature_c[g[2]]);
-      WidenByFieldInBall(a, b, c, tf, q, r, lo, hi);
-      return hi - lo <= options.uniform_range_k;
-    });
-  }
+      // The range over the ball, stopping as soon as it exceeds uniform_range_k.
+      const Eigen::Vector3d& q = closest->on_face.point;
+      double lo = out.truth_c[i], hi = out.truth_c[i];
+      out.uniform[i] = grid.VisitCandidates(q, r, [&](int f) {
+        if (visited[f] == i) return true;  // binned in several cells
+        visited[f] = i;
+        const Eigen::Vector3i& g = truth.faces[f];
+        const Eigen::Vector3d &a = truth.vertices[g[0]], &b = truth.vertices[g[1]], &c = truth.vertices[g[2]];
+        if ((ClosestPointOnTriangle(q, a, b, c) - q).norm() > r) return true;
+        const Eigen::Vector3d tf(truth.temperature_c[g[0]], truth.temperature_c[g[1]],
+                                 truth.temperature_c[g[2]]);
+        WidenByFieldInBall(a, b, c, tf, q, r, lo, hi);
+        return hi - lo <= options.uniform_range_k;
+      });
+    }
+  });
   out.stats = TemperatureErrors(out, estimate_c);
   return out;
 }

@@ -55,6 +55,9 @@ struct TemperatureErrorOptions {
   // K, > 0. 0.5 K: a quarter of a radiometric core's ±2 K accuracy and 10× its NETD, so
   // variation below it does not show in the error budget.
   double uniform_range_k = 0.5;
+  // Threads for the per-vertex queries, >= 0 (0: hardware concurrency). The result does not
+  // depend on it.
+  int num_threads = 0;
 
   // "" when valid, else a message naming the field, value and constraint.
   std::string Check() const;

@@ -78,6 +78,9 @@ TEST(TemperatureErrorOptions, CheckNamesTheField) {
   o = {};
   o.uniform_range_k = 0;
   EXPECT_NE(o.Check().find("uniform_range_k"), std::string::npos);
+  o = {};
+  o.num_threads = -1;
+  EXPECT_NE(o.Check().find("num_threads"), std::string::npos);
 }
 
 TEST(TemperatureErrors, StatsAndInterpolatedPercentile) {
@@ -255,6 +258,17 @@ TEST(CompareTemperatures, HotDiscBorderIsOutsideTheUniformSubset) {
   }
   ASSERT_GT(border, 100);
   ASSERT_GT(far, 10000);
+  // The same on one thread as on three.
+  options.num_threads = 1;
+  const TemperatureComparison one =
+      CompareTemperatures(positions, model.faces, std::vector<double>(positions.size(), 20), truth, options);
+  options.num_threads = 3;
+  const TemperatureComparison three =
+      CompareTemperatures(positions, model.faces, std::vector<double>(positions.size(), 20), truth, options);
+  for (size_t i = 0; i < positions.size(); ++i) {
+    ASSERT_EQ(one.truth_c[i], three.truth_c[i]) << i;
+    ASSERT_EQ(one.uniform[i], three.uniform[i]) << i;
+  }
   const TemperatureErrorStats s = TemperatureErrors(first, estimate);
   const double n = static_cast<double>(positions.size());
   EXPECT_EQ(s.compared, static_cast<int>(positions.size()));
