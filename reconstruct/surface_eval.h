@@ -8,6 +8,8 @@
 
 #include <Eigen/Core>
 
+#include "reconstruct/mesh_query.h"  // ClosestPointOnTriangle
+
 namespace hw::reconstruct {
 
 struct SurfaceDistanceStats {
@@ -18,18 +20,14 @@ struct SurfaceDistanceStats {
 };
 
 // Unsigned distances from `points` to the triangle mesh (vertices, faces), same frame and
-// units (m). Triangles are binned in a uniform grid of max_distance_m cells, so each query
-// looks at the triangles of its 27 neighbouring cells only: distances beyond max_distance_m
-// are not measured (nullopt). Exact point-to-triangle distance (closest point on the
-// triangle, its edges or vertices). Asserts max_distance_m > 0 and face indices in range.
+// units (m). Triangles are binned in a uniform grid of max_distance_m cells (TriangleGrid),
+// so each query looks at the triangles of its 27 neighbouring cells only: distances beyond
+// max_distance_m are not measured (nullopt). Exact point-to-triangle distance (closest point
+// on the triangle, its edges or vertices). Asserts max_distance_m > 0 and face indices in range.
 std::vector<std::optional<double>> PointToMeshDistances(
     const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& vertices,
     const std::vector<Eigen::Vector3i>& faces, double max_distance_m);
 
 SurfaceDistanceStats SummarizeDistances(const std::vector<std::optional<double>>& distances);
-
-// The closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection §5.1.5).
-Eigen::Vector3d ClosestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                       const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 }  // namespace hw::reconstruct

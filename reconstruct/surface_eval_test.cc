@@ -1,5 +1,6 @@
 #include "reconstruct/surface_eval.h"
 
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -42,6 +43,53 @@ TEST(ClosestPointOnTriangle, MatchesDenseSampling) {
     EXPECT_LE(exact, brute + 1e-12);
     EXPECT_GT(exact, brute - 0.004);
   }
+}
+
+TEST(ClosestPointOnTriangle, WeightsReproduceThePoint) {
+  const Vector3d a(0.1, -0.2, 0.3), b(1.2, 0.4, -0.1), c(-0.3, 0.9, 0.5);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  for (int trial = 0; trial < 200; ++trial) {
+    const Vector3d p(u(rng), u(rng), u(rng));
+    const TrianglePoint q = ClosestPointOnTriangleWithWeights(p, a, b, c);
+    EXPECT_EQ(q.point, ClosestPointOnTriangle(p, a, b, c));
+    EXPECT_GE(q.weights.minCoeff(), 0);
+    EXPECT_NEAR(q.weights.sum(), 1, 1e-12);
+    EXPECT_LT((q.weights.x() * a + q.weights.y() * b + q.weights.z() * c - q.point).norm(), 1e-12);
+  }
+}
+
+TEST(PointToMeshDistances, MatchesBruteForceOnLargeSlantedTriangles) {
+  // Triangles of up to 1 m in every orientation in a grid of 5 cm cells: each is binned only
+  // in the cells it comes near, which must not lose any query within the search radius.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.5, 0.5);
+  std::vector<Vector3d> vertices;
+  std::vector<Eigen::Vector3i> faces;
+  for (int f = 0; f < 20; ++f) {
+    for (int k = 0; k < 3; ++k) vertices.emplace_back(u(rng), u(rng), u(rng));
+    faces.emplace_back(3 * f, 3 * f + 1, 3 * f + 2);
+  }
+  std::vector<Vector3d> points;
+  for (int i = 0; i < 2000; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  constexpr double kMax = 0.05;
+  const auto d = PointToMeshDistances(points, vertices, faces, kMax);
+  int within = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    double brute = INFINITY;
+    for (const auto& f : faces) {
+      brute = std::min(brute, (ClosestPointOnTriangle(points[i], vertices[f[0]], vertices[f[1]], vertices[f[2]]) -
+                               points[i]).norm());
+    }
+    if (brute <= kMax) {
+      ++within;
+      ASSERT_TRUE(d[i]) << i;
+      EXPECT_EQ(*d[i], brute);
+    } else {
+      EXPECT_FALSE(d[i]) << i;
+    }
+  }
+  EXPECT_GT(within, 200);  // the test exercises the search
 }
 
 TEST(PointToMeshDistances, PlaneOfTwoTrianglesAndSearchRadius) {

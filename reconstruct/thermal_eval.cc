@@ -1,0 +1,262 @@
+#include "reconstruct/thermal_eval.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <optional>
+
+#include <Eigen/Geometry>
+
+#include "core/error.h"
+#include "core/ply.h"
+#include "reconstruct/mesh_query.h"
+#include "reconstruct/option_check.h"
+#include "reconstruct/row_bands.h"
+
+namespace hw::reconstruct {
+
+using internal::Fail;
+
+std::string TemperatureErrorOptions::Check() const {
+  if (!(max_distance_m > 0) || !std::isfinite(max_distance_m)) {
+    return Fail("max_distance_m", max_distance_m, "finite and > 0 m");
+  }
+  if (!(edge_exclusion_m >= 0) || !std::isfinite(edge_exclusion_m)) {
+    return Fail("edge_exclusion_m", edge_exclusion_m, "finite and >= 0 m");
+  }
+  if (!(uniform_radius_m > 0) || !std::isfinite(uniform_radius_m)) {
+    return Fail("uniform_radius_m", uniform_radius_m, "finite and > 0 m");
+  }
+  if (!(uniform_range_k > 0) || !std::isfinite(uniform_range_k)) {
+    return Fail("uniform_range_k", uniform_range_k, "finite and > 0 K");
+  }
+  if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
+  return "";
+}
+
+TemperatureTruth ReadTemperatureTruth(const std::filesystem::path& scene_ply) {
+  const core::PlyMesh mesh = core::ReadPly(scene_ply);
+  if (!mesh.HasPositions()) throw core::InputError(scene_ply, "no vertex positions (x y z)");
+  if (mesh.faces.empty()) throw core::InputError(scene_ply, "no faces: a truth mesh needs triangles");
+  const core::PlyProperty* temperature = mesh.Find("temperature_c");
+  if (!temperature) throw core::InputError(scene_ply, "no vertex property temperature_c");
+  TemperatureTruth truth;
+  truth.vertices = mesh.Positions();
+  truth.faces = mesh.faces;
+  truth.temperature_c = temperature->values;
+  for (size_t i = 0; i < truth.temperature_c.size(); ++i) {
+    if (!std::isfinite(truth.temperature_c[i])) {
+      throw core::InputError(scene_ply, "vertex " + std::to_string(i) + ": temperature_c is not finite");
+    }
+  }
+  if (const core::PlyProperty* emissivity = mesh.Find("emissivity")) truth.emissivity = emissivity->values;
+  return truth;
+}
+
+namespace {
+
+// Widens [lo, hi] by the range of the linear field t (t[k] at corner k) of triangle
+// (a, b, c) over its part inside the ball (q, r). That part is the triangle cut by a disc
+// (the ball's section by the triangle's plane), a convex set: a linear function is extreme
+// on it at a triangle vertex inside the disc, a crossing of an edge and the circle, or the
+// circle's point along ±the in-plane gradient when it lies inside the triangle. The first
+// two are the ends of each edge's piece inside the ball.
+void WidenByFieldInBall(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                        const Eigen::Vector3d& t, const Eigen::Vector3d& q, double r, double& lo, double& hi) {
+  const auto take = [&](double value) {
+    lo = std::min(lo, value);
+    hi = std::max(hi, value);
+  };
+  const Eigen::Vector3d corners[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d& u = corners[k];
+    const Eigen::Vector3d d = corners[(k + 1) % 3] - u;
+    const double tu = t[k], tv = t[(k + 1) % 3];
+    // |u + s d − q|² = r²: s² |d|² + 2 s d·(u − q) + |u − q|² − r² = 0.
+    const Eigen::Vector3d w = u - q;
+    const double dd = d.squaredNorm();
+    if (!(dd > 0)) {
+      if (w.norm() <= r) take(tu);
+      continue;
+    }
+    const double half_b = d.dot(w), cc = w.squaredNorm() - r * r;
+    const double disc = half_b * half_b - dd * cc;
+    if (disc < 0) continue;
+    const double root = std::sqrt(disc);
+    const double s0 = std::max(0.0, (-half_b - root) / dd), s1 = std::min(1.0, (-half_b + root) / dd);
+    if (s0 > s1) continue;
+    take(tu + s0 * (tv - tu));
+    take(tu + s1 * (tv - tu));
+  }
+  // The field in the plane: T(a + α e1 + β e2) = t_a + α (t_b − t_a) + β (t_c − t_a).
+  const Eigen::Vector3d e1 = b - a, e2 = c - a;
+  const double g11 = e1.dot(e1), g12 = e1.dot(e2), g22 = e2.dot(e2);
+  const double det = g11 * g22 - g12 * g12;
+  if (!(det > 1e-12 * g11 * g22)) return;  // degenerate: the edges cover it
+  const Eigen::Vector3d normal = e1.cross(e2).normalized();
+  const double height = (q - a).dot(normal);
+  const double rho2 = r * r - height * height;
+  if (!(rho2 > 0)) return;
+  // Gradient g = α e1 + β e2 with g·e1 = t_b − t_a, g·e2 = t_c − t_a.
+  const double dt1 = t[1] - t[0], dt2 = t[2] - t[0];
+  const double ga = (g22 * dt1 - g12 * dt2) / det, gb = (g11 * dt2 - g12 * dt1) / det;
+  const Eigen::Vector3d gradient = ga * e1 + gb * e2;
+  const double gradient_norm = gradient.norm();
+  if (!(gradient_norm > 0)) return;
+  const Eigen::Vector3d centre = q - height * normal;
+  for (const double sign : {-1.0, 1.0}) {
+    const Eigen::Vector3d x = centre + sign * std::sqrt(rho2) / gradient_norm * gradient - a;
+    const double x1 = x.dot(e1), x2 = x.dot(e2);
+    const double alpha = (g22 * x1 - g12 * x2) / det, beta = (g11 * x2 - g12 * x1) / det;
+    constexpr double kInside = -1e-12;
+    if (alpha >= kInside && beta >= kInside && 1 - alpha - beta >= kInside) take(t[0] + alpha * dt1 + beta * dt2);
+  }
+}
+
+// The model's boundary vertices: those of edges used by exactly one face. Edges as sorted
+// 64-bit keys (8 bytes per face side, no hash-map nodes: a 4M-vertex model has 23M sides).
+std::vector<Eigen::Vector3d> BoundaryVertices(const std::vector<Eigen::Vector3f>& positions,
+                                              const std::vector<Eigen::Vector3i>& faces) {
+  std::vector<uint64_t> edges;
+  edges.reserve(faces.size() * 3);
+  for (const Eigen::Vector3i& face : faces) {
+    for (int k = 0; k < 3; ++k) {
+      assert(face[k] >= 0 && face[k] < static_cast<int>(positions.size()));
+      const int u = face[k], v = face[(k + 1) % 3];
+      edges.push_back((static_cast<uint64_t>(std::min(u, v)) << 32) | static_cast<uint32_t>(std::max(u, v)));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<uint8_t> on_boundary(positions.size(), 0);
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) {
+      on_boundary[edges[i] >> 32] = 1;
+      on_boundary[edges[i] & 0xffffffffu] = 1;
+    }
+    i = j;
+  }
+  std::vector<Eigen::Vector3d> out;
+  for (size_t i = 0; i < positions.size(); ++i) {
+    if (on_boundary[i]) out.push_back(positions[i].cast<double>());
+  }
+  return out;
+}
+
+struct ErrorSummary {
+  double rmse = TemperatureErrorStats::kNaN, p95_abs = TemperatureErrorStats::kNaN;
+  double mean = TemperatureErrorStats::kNaN, max_abs = TemperatureErrorStats::kNaN;
+};
+
+ErrorSummary Summarize(const std::vector<double>& errors) {
+  ErrorSummary s;
+  if (errors.empty()) return s;
+  double sum = 0, sum2 = 0;
+  std::vector<double> abs_errors;
+  abs_errors.reserve(errors.size());
+  for (const double e : errors) {
+    sum += e;
+    sum2 += e * e;
+    abs_errors.push_back(std::abs(e));
+  }
+  const double n = static_cast<double>(errors.size());
+  s.mean = sum / n;
+  s.rmse = std::sqrt(sum2 / n);
+  std::sort(abs_errors.begin(), abs_errors.end());
+  const double rank = 0.95 * (n - 1);
+  const size_t below = static_cast<size_t>(std::floor(rank));
+  const size_t above = std::min(below + 1, abs_errors.size() - 1);
+  s.p95_abs = abs_errors[below] + (rank - static_cast<double>(below)) * (abs_errors[above] - abs_errors[below]);
+  s.max_abs = abs_errors.back();
+  return s;
+}
+
+}  // namespace
+
+TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
+                                        const std::vector<double>& estimate_c) {
+  assert(estimate_c.size() == comparison.truth_c.size());
+  assert(comparison.uniform.size() == comparison.truth_c.size());
+  TemperatureErrorStats stats;
+  stats.vertices = static_cast<int>(estimate_c.size());
+  std::vector<double> errors, uniform_errors;
+  for (size_t i = 0; i < estimate_c.size(); ++i) {
+    if (!std::isfinite(estimate_c[i])) continue;
+    ++stats.observed;
+    if (!std::isfinite(comparison.truth_c[i])) continue;
+    const double error = estimate_c[i] - comparison.truth_c[i];
+    errors.push_back(error);
+    if (comparison.uniform[i]) uniform_errors.push_back(error);
+  }
+  stats.compared = static_cast<int>(errors.size());
+  stats.compared_uniform = static_cast<int>(uniform_errors.size());
+  const ErrorSummary all = Summarize(errors), uniform = Summarize(uniform_errors);
+  stats.rmse_k = all.rmse;
+  stats.p95_abs_k = all.p95_abs;
+  stats.mean_k = all.mean;
+  stats.max_abs_k = all.max_abs;
+  stats.rmse_uniform_k = uniform.rmse;
+  stats.p95_abs_uniform_k = uniform.p95_abs;
+  stats.mean_uniform_k = uniform.mean;
+  return stats;
+}
+
+TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& model_positions,
+                                          const std::vector<Eigen::Vector3i>& model_faces,
+                                          const std::vector<double>& estimate_c,
+                                          const TemperatureTruth& truth,
+                                          const TemperatureErrorOptions& options) {
+  assert(options.Check().empty());
+  assert(estimate_c.size() == model_positions.size());
+  assert(truth.temperature_c.size() == truth.vertices.size());
+  const size_t n = model_positions.size();
+  TemperatureComparison out;
+  out.truth_c.assign(n, TemperatureErrorStats::kNaN);
+  out.uniform.assign(n, 0);
+
+  std::optional<PointGrid> boundary;
+  if (options.edge_exclusion_m > 0) {
+    boundary.emplace(BoundaryVertices(model_positions, model_faces), options.edge_exclusion_m);
+  }
+  // One grid serves both the closest-point search and the ball around the closest point.
+  const TriangleGrid grid(truth.vertices, truth.faces,
+                          std::max(options.max_distance_m, options.uniform_radius_m));
+  const double r = options.uniform_radius_m;
+  ForEachBand(static_cast<int>(n), options.num_threads, [&](int begin, int end) {
+    std::vector<int> visited(truth.faces.size(), -1);  // the last model vertex that looked at a face
+    for (int i = begin; i < end; ++i) {
+      const Eigen::Vector3d p = model_positions[i].cast<double>();
+      const auto closest = grid.FindClosest(p, options.max_distance_m);
+      if (!closest) continue;
+      // Strictly closer than the exclusion distance: with edge_exclusion_m = 0 nothing is.
+      if (boundary) {
+        const auto d = boundary->NearestDistance(p, options.edge_exclusion_m);
+        if (d && *d < options.edge_exclusion_m) continue;
+      }
+      const Eigen::Vector3i& face = truth.faces[closest->face];
+      const Eigen::Vector3d t(truth.temperature_c[face[0]], truth.temperature_c[face[1]],
+                              truth.temperature_c[face[2]]);
+      out.truth_c[i] = closest->on_face.weights.dot(t);
+
+      // The range over the ball, stopping as soon as it exceeds uniform_range_k.
+      const Eigen::Vector3d& q = closest->on_face.point;
+      double lo = out.truth_c[i], hi = out.truth_c[i];
+      out.uniform[i] = grid.VisitCandidates(q, r, [&](int f) {
+        if (visited[f] == i) return true;  // binned in several cells
+        visited[f] = i;
+        const Eigen::Vector3i& g = truth.faces[f];
+        const Eigen::Vector3d &a = truth.vertices[g[0]], &b = truth.vertices[g[1]], &c = truth.vertices[g[2]];
+        if ((ClosestPointOnTriangle(q, a, b, c) - q).norm() > r) return true;
+        const Eigen::Vector3d tf(truth.temperature_c[g[0]], truth.temperature_c[g[1]],
+                                 truth.temperature_c[g[2]]);
+        WidenByFieldInBall(a, b, c, tf, q, r, lo, hi);
+        return hi - lo <= options.uniform_range_k;
+      });
+    }
+  });
+  out.stats = TemperatureErrors(out, estimate_c);
+  return out;
+}
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,118 @@
+#pragma once
+
+// Temperature accuracy of a reconstructed model: each model vertex's estimated surface
+// temperature against the true temperature at the closest point of a reference mesh that
+// carries one per vertex (truth/scene.ply of a synthetic scan, scan-format.md "truth/").
+//
+// Typical use:
+//   const TemperatureTruth truth = ReadTemperatureTruth(scan / "truth" / "scene.ply");
+//   const TemperatureComparison c =
+//       CompareTemperatures(mesh.positions, mesh.faces, fused_c, truth, {});
+//   ... c.stats.rmse_k, c.stats.rmse_uniform_k
+//   const TemperatureErrorStats latest = TemperatureErrors(c, latest_c);  // another method
+
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace hw::reconstruct {
+
+// The truth a model's temperatures are compared with: a mesh with a temperature per vertex.
+struct TemperatureTruth {
+  std::vector<Eigen::Vector3d> vertices;  // m, world frame
+  std::vector<Eigen::Vector3i> faces;
+  std::vector<double> temperature_c;  // per vertex, true surface temperature
+  std::vector<double> emissivity;     // per vertex, normal emissivity (may be empty)
+};
+
+// From truth/scene.ply (vertex properties x y z temperature_c [emissivity], faces). Throws
+// core::InputError naming the file when it cannot be read as PLY, lacks positions, faces or
+// the temperature_c property, or holds a non-finite temperature_c (naming the vertex).
+TemperatureTruth ReadTemperatureTruth(const std::filesystem::path& scene_ply);
+
+// Which model vertices are compared, and which form the "uniform" subset. Defaults for a
+// 5 mm voxel model of a hand-held RGB-D + thermal scan at 0.5–3 m.
+struct TemperatureErrorOptions {
+  // Model vertices farther than this from the truth surface are not compared (the geometry
+  // is wrong there, not the temperature), m, > 0. 1 cm = two 5 mm voxels, beyond the few mm
+  // a tracked TSDF model deviates from the truth.
+  double max_distance_m = 0.01;
+  // ... nor those closer than this to a boundary vertex of the model mesh (an edge used by
+  // exactly one face: depth edges, holes and silhouettes, where edge pixels are
+  // misregistered and thermal rays graze the surface), m, >= 0 (0: none excluded). 1 cm:
+  // two voxels, the reach of flying depth pixels into the TSDF.
+  double edge_exclusion_m = 0.01;
+  // "Uniform" subset: also drop vertices where the true temperature varies by more than
+  // uniform_range_k within uniform_radius_m of the closest truth point (hot-spot borders a
+  // 5 mm voxel grid cannot resolve; reported separately, never hidden). The radius is two
+  // voxels (what trilinear voxel interpolation blurs, and about two thermal pixels of a
+  // 320×240, 56° camera at 1.5 m), m, > 0.
+  double uniform_radius_m = 0.01;
+  // K, > 0. 0.5 K: a quarter of a radiometric core's ±2 K accuracy and 10× its NETD, so
+  // variation below it does not show in the error budget.
+  double uniform_range_k = 0.5;
+  // Threads for the per-vertex queries, >= 0 (0: hardware concurrency). The result does not
+  // depend on it.
+  int num_threads = 0;
+
+  // "" when valid, else a message naming the field, value and constraint.
+  std::string Check() const;
+};
+
+struct TemperatureErrorStats {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  int vertices = 0;          // model vertices given
+  int observed = 0;          // with a finite estimate
+  int compared = 0;          // observed, near the truth, away from model boundaries
+  int compared_uniform = 0;  // compared and in the uniform subset
+  // Over `compared` (error = estimate − truth), K; NaN when none. p95_abs_k: the 95th
+  // percentile of |error| interpolated linearly between order statistics (rank 0.95·(n−1),
+  // numpy's default).
+  double rmse_k = kNaN, p95_abs_k = kNaN, mean_k = kNaN, max_abs_k = kNaN;
+  // Over compared_uniform, K; NaN when none.
+  double rmse_uniform_k = kNaN, p95_abs_uniform_k = kNaN, mean_uniform_k = kNaN;
+};
+
+// truth_c and uniform depend on the geometry only, not on an estimate: TemperatureErrors
+// applies them to any estimate over the same model vertices.
+struct TemperatureComparison {
+  // Per model vertex, the true temperature at the closest truth point, °C; NaN where the
+  // vertex is not compared whatever its estimate (beyond max_distance_m or within
+  // edge_exclusion_m of a model boundary).
+  std::vector<double> truth_c;
+  // Per model vertex, 1 where truth_c is finite and the true temperature within
+  // uniform_radius_m of the closest truth point spans at most uniform_range_k.
+  std::vector<uint8_t> uniform;
+  TemperatureErrorStats stats;  // of the estimate given to CompareTemperatures
+};
+
+// Per model vertex (positions in the truth's frame, m; faces of the model mesh):
+// - the closest truth point within max_distance_m (exact point-to-triangle search in a grid)
+//   and the true temperature there: the barycentric interpolation of the closest triangle's
+//   vertex temperatures; none (NaN) beyond;
+// - NaN as well within edge_exclusion_m (Euclidean) of a boundary vertex of the model;
+// - the uniform flag: the range of the truth's piecewise-linear temperature over the ball of
+//   uniform_radius_m around the closest truth point, computed exactly on every truth
+//   triangle the ball meets (the truth's vertices in the ball, its edges' crossings of the
+//   sphere, the in-plane extremes of the linear field on the ball's disc), so it does not
+//   depend on how coarsely the truth is tessellated away from its vertices;
+// then the stats of estimate_c (per model vertex, °C, NaN = unobserved).
+// Asserts options.Check() == "", estimate_c.size() == model_positions.size(), model face
+// indices in range and truth.temperature_c.size() == truth.vertices.size().
+// Memory: the truth's triangles in a grid of max(max_distance_m, uniform_radius_m) cells.
+TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& model_positions,
+                                          const std::vector<Eigen::Vector3i>& model_faces,
+                                          const std::vector<double>& estimate_c,
+                                          const TemperatureTruth& truth,
+                                          const TemperatureErrorOptions& options);
+
+// Stats of another estimate over the same vertices (reuses truth_c/uniform: cheap, for
+// comparing several methods on one model). Asserts estimate_c has one value per vertex.
+TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
+                                        const std::vector<double>& estimate_c);
+
+}  // namespace hw::reconstruct
