@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 namespace hw::core {
@@ -287,6 +288,85 @@ double SurfacePerApparent(const BandRadiance& band, double apparent_c, double em
                           double reflected_c) {
   return SurfaceFromApparentWithDerivatives(band, apparent_c, emissivity, reflected_c)
       .d_apparent;
+}
+
+// ---------------------------------------------------------------------------------------
+// Directional emissivity
+
+std::string EmissivityLawName(EmissivityLaw law) {
+  switch (law) {
+    case EmissivityLaw::kDielectric: return "dielectric";
+    case EmissivityLaw::kMetal: return "metal";
+  }
+  assert(false && "unknown EmissivityLaw");
+  return "";
+}
+
+std::optional<EmissivityLaw> ParseEmissivityLaw(std::string_view name) {
+  if (name == "dielectric") return EmissivityLaw::kDielectric;
+  if (name == "metal") return EmissivityLaw::kMetal;
+  return std::nullopt;
+}
+
+double FresnelReflectance(const ComplexIndex& index, double cos_theta) {
+  const double c = std::clamp(std::abs(cos_theta), 0.0, 1.0);
+  const double sin2 = 1.0 - c * c;
+  const double n = index.n, k = index.k;
+  // a + ib = sqrt((n + ik)² - sin²θ) (= N·cos θ_t). Take whichever of a², b² has no
+  // cancellation from the square-root form and the other from a·b = n·k.
+  const double p = n * n - k * k - sin2;
+  const double q = std::hypot(p, 2 * n * k);
+  double a = 0, b = 0;
+  if (p >= 0) {
+    a = std::sqrt(0.5 * (q + p));
+    b = a > 0 ? n * k / a : 0;
+  } else {
+    b = std::sqrt(0.5 * (q - p));
+    a = n * k / b;
+  }
+  const double rs = ((a - c) * (a - c) + b * b) / ((a + c) * (a + c) + b * b);
+  // Born & Wolf's Rp/Rs = ((a - sinθ tanθ)² + b²)/((a + sinθ tanθ)² + b²), multiplied
+  // through by cos²θ so that grazing incidence (cos θ = 0, ratio 1) is not 0/0.
+  const double lo = a * c - sin2, hi = a * c + sin2, bc = b * c;
+  const double ratio = (lo * lo + bc * bc) / (hi * hi + bc * bc);
+  return 0.5 * (rs + rs * ratio);
+}
+
+double MaxMetalNormalEmissivity() {
+  const double r = kMetalExtinctionRatio;
+  return 2.0 / (1.0 + std::sqrt(1.0 + r * r));
+}
+
+ComplexIndex MetalIndexForNormalEmissivity(double normal_emissivity) {
+  const double e = normal_emissivity, r2 = kMetalExtinctionRatio * kMetalExtinctionRatio;
+  assert(e > 0 && e <= MaxMetalNormalEmissivity() * (1 + 1e-12) && "metal emissivity");
+  // ε_n = 4n / ((n + 1)² + r²n²)  ⇔  ε(1 + r²)·n² - (4 - 2ε)·n + ε = 0. Both terms of the
+  // larger root add (no cancellation); the smaller root is a weakly absorbing dielectric.
+  const double A = e * (1 + r2), B = 4 - 2 * e;
+  const double disc = std::max(0.0, B * B - 4 * A * e);
+  const double n = (B + std::sqrt(disc)) / (2 * A);
+  return {n, kMetalExtinctionRatio * n};
+}
+
+double MetalDirectionalEmissivity(double normal_emissivity, double cos_theta) {
+  return 1.0 - FresnelReflectance(MetalIndexForNormalEmissivity(normal_emissivity), cos_theta);
+}
+
+double DielectricIndexForNormalEmissivity(double normal_emissivity) {
+  assert(normal_emissivity > 0 && normal_emissivity <= 1 && "dielectric emissivity");
+  const double r = std::sqrt(1.0 - normal_emissivity);  // |(n - 1)/(n + 1)|
+  return (1.0 + r) / (1.0 - r);
+}
+
+double DirectionalEmissivity(EmissivityLaw law, double normal_emissivity, double cos_theta) {
+  assert(normal_emissivity > 0 && normal_emissivity <= 1 && "emissivity");
+  if (law == EmissivityLaw::kMetal && normal_emissivity <= MaxMetalNormalEmissivity()) {
+    return MetalDirectionalEmissivity(normal_emissivity, cos_theta);
+  }
+  // n = 1 reflects nothing at any angle but is 0/0 in the closed form at grazing incidence.
+  if (normal_emissivity == 1) return 1.0;
+  return 1.0 - FresnelReflectance({DielectricIndexForNormalEmissivity(normal_emissivity), 0.0},
+                                  cos_theta);
 }
 
 }  // namespace hw::core
