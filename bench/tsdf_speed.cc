@@ -4,13 +4,16 @@
 // resolution (the ICP reference) and at half resolution.
 //
 //   bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] [--no-colour]
-//                         [--repeat R] [--dump FILE]
+//                         [--repeat R] [--dump FILE] [--thermal]
 //
 // SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
 // fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
 // Prints one line per frame and the median and mean of each column. --dump writes the final
 // volume (every block sorted by key: 3 int32 key, then its 512 voxels as stored, 12 bytes
-// each) so that two builds' volumes can be compared voxel by voxel.
+// each) so that two builds' volumes can be compared voxel by voxel. --thermal (scans with a
+// thermal camera) then raycasts the final volume from every frame's thermal pose (depth pose
+// composed with depth_from_thermal), through the lens model (CameraRays) and through its
+// pinhole part (PinholeCamera::Of), and prints the cost per ray of each (fastest of R).
 
 #include <algorithm>
 #include <chrono>
@@ -41,12 +44,12 @@ int Run(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] "
-                 "[--no-colour] [--repeat R] [--dump FILE]\n");
+                 "[--no-colour] [--repeat R] [--dump FILE] [--thermal]\n");
     return 1;
   }
   const std::string folder = argv[1];
   int frames = 60, threads = 2, repeat = 1;
-  bool colour = true;
+  bool colour = true, thermal = false;
   std::string dump;
   hw::reconstruct::TsdfOptions options;
   for (int i = 2; i < argc; ++i) {
@@ -65,6 +68,7 @@ int Run(int argc, char** argv) {
     else if (a == "--no-colour") colour = false;
     else if (a == "--repeat") repeat = std::max(1, std::atoi(next()));
     else if (a == "--dump") dump = next();
+    else if (a == "--thermal") thermal = true;
     else {
       std::fprintf(stderr, "bench_tsdf_speed: unknown option %s\n", a.c_str());
       return 1;
@@ -94,11 +98,13 @@ int Run(int argc, char** argv) {
   std::printf("%5s %16s %16s %16s %8s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
               "ray 1/2 (cpu)", "blocks", "visible", "kvoxels", "valid%", "MiB");
   std::vector<double> integrate_ms, raycast_ms, half_ms, integrate_cpu, raycast_cpu, half_cpu;
+  std::vector<hw::core::Rigid3d> poses;
   const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
   for (int i = 0; i < n; ++i) {
     const double t = scan.DepthClockTime(hw::core::Stream::kDepth, i);
     const auto pose = scan.groundtruth()->At(t);
     if (!pose || !scan.FrameExists(hw::core::Stream::kDepth, i)) continue;
+    poses.push_back(*pose);
     const cv::Mat depth = scan.LoadDepth(i);
     hw::reconstruct::ColourView view;
     bool have_colour = false;
@@ -168,6 +174,40 @@ int Run(int argc, char** argv) {
   Summary("integrate cpu", integrate_cpu);
   Summary("raycast full cpu", raycast_cpu);
   Summary("raycast half cpu", half_cpu);
+  if (thermal && rig.thermal && !poses.empty()) {
+    const auto r0 = Clock::now();
+    const hw::reconstruct::CameraRays rays(*rig.thermal);
+    const double rays_ms = Ms(r0, Clock::now());
+    const auto pinhole = hw::reconstruct::PinholeCamera::Of(*rig.thermal);
+    double lens_ms = 0, pinhole_ms = 0;
+    long long lens_valid = 0, pinhole_valid = 0;
+    for (const hw::core::Rigid3d& pose : poses) {
+      const hw::core::Rigid3d thermal_pose = pose * rig.depth_from_thermal;
+      double best_lens = 1e300, best_pinhole = 1e300;
+      for (int r = 0; r < repeat; ++r) {
+        const auto ta = Clock::now();
+        const auto lens_map = hw::reconstruct::Raycast(volume, rays, thermal_pose, raycast);
+        const auto tb = Clock::now();
+        const auto pinhole_map = hw::reconstruct::Raycast(volume, pinhole, thermal_pose, raycast);
+        const auto tc = Clock::now();
+        best_lens = std::min(best_lens, Ms(ta, tb));
+        best_pinhole = std::min(best_pinhole, Ms(tb, tc));
+        if (r == 0) {
+          lens_valid += lens_map.NumValid();
+          pinhole_valid += pinhole_map.NumValid();
+        }
+      }
+      lens_ms += best_lens;
+      pinhole_ms += best_pinhole;
+    }
+    const double rays_per_pose = static_cast<double>(pinhole.width) * pinhole.height;
+    const double total_rays = rays_per_pose * static_cast<double>(poses.size());
+    std::printf("thermal %dx%d, %zu poses, final volume: lens rays %.1f ns/ray (%.1f%% hit), pinhole part "
+                "%.1f ns/ray (%.1f%% hit); CameraRays built in %.1f ms\n",
+                pinhole.width, pinhole.height, poses.size(), lens_ms * 1e6 / total_rays,
+                100.0 * static_cast<double>(lens_valid) / total_rays, pinhole_ms * 1e6 / total_rays,
+                100.0 * static_cast<double>(pinhole_valid) / total_rays, rays_ms);
+  }
   if (!dump.empty()) {
     std::vector<const hw::reconstruct::VoxelBlock*> blocks;
     volume.ForEachBlock([&](const hw::reconstruct::VoxelBlock& block) { blocks.push_back(&block); });

@@ -4,7 +4,9 @@
 // points, normals and colours. Everything after the first step of a frame (undistortion,
 // reconstruct/depth_frame.h) works on distortion-free pinhole images, so that projecting a
 // point — done millions of times per frame by integration, raycasting and ICP — is four
-// multiply-adds instead of an iterative lens model.
+// multiply-adds instead of an iterative lens model. The one exception is raycasting through
+// a camera's own lens (camera_rays.h: rays precomputed per pixel, so still no lens model
+// per ray).
 
 #include <cmath>
 #include <cstdint>

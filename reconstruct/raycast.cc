@@ -142,18 +142,16 @@ using internal::DepthRanges;
 struct RayMarch {
   Eigen::Matrix3f rotation;  // world_from_camera
   Eigen::Vector3f origin;    // camera centre, world frame (m)
-  PinholeCamera camera;
   float truncation_m = 0;
   float min_step = 0;  // RaycastOptions::step_fraction
   float block_m = 0, inv_voxel_m = 0;
   bool with_colour = false;
 
-  // Marches the ray of pixel (x, y) from depth t_begin to t_end (m along the optical axis)
-  // and fills the pixel of `map` when it meets a surface from the front.
-  void Cast(int x, int y, float t_begin, float t_end, TsdfSampler& sampler, PointMap& map) const {
+  // Marches ray_in_camera (camera frame, z = 1) from depth t_begin to t_end (m along the
+  // optical axis) and fills pixel (x, y) of `map` when it meets a surface from the front.
+  void Cast(int x, int y, const Eigen::Vector3f& ray_in_camera, float t_begin, float t_end,
+            TsdfSampler& sampler, PointMap& map) const {
     // t is the depth along the optical axis; the world point is origin + t · direction.
-    const Eigen::Vector3f ray_in_camera((static_cast<float>(x) - camera.cx) / camera.fx,
-                                        (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
     const Eigen::Vector3f direction = rotation * ray_in_camera;
     const Eigen::Vector3f inv_direction = direction.cwiseInverse();  // inf where 0: unused
     const float metres_per_t = ray_in_camera.norm();
@@ -233,6 +231,20 @@ struct RayMarch {
   }
 };
 
+// The march shared by both overloads.
+RayMarch MakeMarch(const TsdfVolume& volume, const core::Rigid3d& world_from_camera,
+                   const RaycastOptions& options) {
+  RayMarch march;
+  march.rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
+  march.origin = world_from_camera.translation.cast<float>();
+  march.truncation_m = static_cast<float>(volume.options().truncation_m);
+  march.min_step = static_cast<float>(options.step_fraction);
+  march.block_m = volume.voxel_size_m() * kBlockSide;
+  march.inv_voxel_m = 1.0f / volume.voxel_size_m();
+  march.with_colour = options.with_colour;
+  return march;
+}
+
 }  // namespace
 
 PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
@@ -245,15 +257,7 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
   const DepthRanges ranges = internal::ProjectBlocks(volume, camera, world_from_camera,
                                                      static_cast<float>(options.min_depth_m),
                                                      static_cast<float>(options.max_depth_m), true);
-  RayMarch march;
-  march.rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
-  march.origin = world_from_camera.translation.cast<float>();
-  march.camera = camera;
-  march.truncation_m = static_cast<float>(volume.options().truncation_m);
-  march.min_step = static_cast<float>(options.step_fraction);
-  march.block_m = volume.voxel_size_m() * kBlockSide;
-  march.inv_voxel_m = 1.0f / volume.voxel_size_m();
-  march.with_colour = options.with_colour;
+  const RayMarch march = MakeMarch(volume, world_from_camera, options);
 
   // Tile rows dealt to the threads in turn (a scene's empty sky and dense floor would
   // unbalance contiguous bands); pixels in tile order, so that consecutive rays read the
@@ -270,7 +274,57 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
         const int y_end = std::min(camera.height, (ty + 1) * kTile);
         const int x_end = std::min(camera.width, (tx + 1) * kTile);
         for (int y = ty * kTile; y < y_end; ++y) {
-          for (int x = tx * kTile; x < x_end; ++x) march.Cast(x, y, t_begin, t_end, sampler, map);
+          for (int x = tx * kTile; x < x_end; ++x) {
+            const Eigen::Vector3f ray_in_camera((static_cast<float>(x) - camera.cx) / camera.fx,
+                                                (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
+            march.Cast(x, y, ray_in_camera, t_begin, t_end, sampler, map);
+          }
+        }
+      }
+    }
+  });
+  return map;
+}
+
+PointMap Raycast(const TsdfVolume& volume, const CameraRays& rays,
+                 const core::Rigid3d& world_from_camera, const RaycastOptions& options) {
+  assert(options.Check().empty());
+  const int width = rays.width(), height = rays.height();
+  PointMap map(width, height);
+  if (options.with_colour) map.colours.assign(map.points.size(), Rgb8::Zero());
+  if (width <= 0 || height <= 0 || volume.NumBlocks() == 0) return map;
+
+  // Depth ranges where the rays are straight lines: in the covering pinhole, whose image
+  // holds every ray's undistorted projection (a block a ray crosses projects onto it).
+  const PinholeCamera& covering = rays.covering_pinhole();
+  const DepthRanges ranges = internal::ProjectBlocks(volume, covering, world_from_camera,
+                                                     static_cast<float>(options.min_depth_m),
+                                                     static_cast<float>(options.max_depth_m), true);
+  const RayMarch march = MakeMarch(volume, world_from_camera, options);
+
+  // As the pinhole overload, in tiles of the distorted image: neighbouring pixels have
+  // neighbouring rays, whatever the lens, so the cache locality holds.
+  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+  const int num_threads = std::min(internal::ResolveThreads(options.num_threads), tiles_y);
+  internal::RunChunks(num_threads, [&](int chunk) {
+    TsdfSampler sampler(volume);
+    for (int ty = chunk; ty < tiles_y; ty += num_threads) {
+      for (int tx = 0; tx < tiles_x; ++tx) {
+        const int y_end = std::min(height, (ty + 1) * kTile);
+        const int x_end = std::min(width, (tx + 1) * kTile);
+        for (int y = ty * kTile; y < y_end; ++y) {
+          for (int x = tx * kTile; x < x_end; ++x) {
+            if (!rays.valid(x, y)) continue;
+            // Its covering tile, as ProjectBlocks assigns pixels to tiles (nearest pixel).
+            const Eigen::Vector2f uv = rays.covering_pixel(x, y);
+            const int tile_x = FloorToInt(uv.x() + 0.5f) / kTile, tile_y = FloorToInt(uv.y() + 0.5f) / kTile;
+            assert(tile_x >= 0 && tile_y >= 0 && tile_x < ranges.tiles_x && tile_y < ranges.tiles_y);
+            const size_t tile = size_t(tile_y) * ranges.tiles_x + tile_x;
+            const float t_begin = ranges.near_m[tile], t_end = ranges.far_m[tile];
+            if (!(t_begin <= t_end)) continue;  // no block projects there
+            const Eigen::Vector2f xy = rays.xy(x, y);
+            march.Cast(x, y, Eigen::Vector3f(xy.x(), xy.y(), 1.0f), t_begin, t_end, sampler, map);
+          }
         }
       }
     }

@@ -9,6 +9,7 @@
 
 #include "core/transform.h"
 #include "reconstruct/camera_maps.h"
+#include "reconstruct/camera_rays.h"
 #include "reconstruct/tsdf_volume.h"
 
 namespace hw::reconstruct {
@@ -36,6 +37,17 @@ struct RaycastOptions {
 // truncation_m); rows of tiles are split in num_threads bands. A point may have an invalid
 // normal where the 32 voxels of NormalAt are not all observed (rim of the observed surface).
 PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
+                 const core::Rigid3d& world_from_camera, const RaycastOptions& options);
+
+// Raycast (same contract as the pinhole overload) with one ray per pixel of rays.camera(): the
+// map has that camera's size, pixel (x, y) holds the first surface along rays.xy(x, y) (the
+// exact ray of its centre through the lens model, not an undistorted resampling); pixels
+// without a ray (!rays.valid) are invalid. A pixel's depth range is that of the tile of
+// rays.covering_pinhole() its undistorted projection falls in; pixels are marched in 8×8
+// tiles of the distorted image. For a model without distortion the map equals the pinhole
+// overload's on PinholeCamera::Of(rays.camera()) bit for bit. A default CameraRays gives an
+// empty (0 × 0) map.
+PointMap Raycast(const TsdfVolume& volume, const CameraRays& rays,
                  const core::Rigid3d& world_from_camera, const RaycastOptions& options);
 
 namespace internal {

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
+#include "core/camera.h"
 #include "core/transform.h"
 #include "reconstruct/camera_maps.h"
 #include "reconstruct/tsdf_volume.h"
@@ -16,6 +17,21 @@ namespace hw::reconstruct::test {
 
 // 160×120, 60°-ish horizontal field of view.
 inline PinholeCamera SmallCamera() { return {160, 120, 120.0f, 120.0f, 79.5f, 59.5f}; }
+
+// The thermal camera of the synthetic rig's design (fixtures/synth_rig.h): 320×240, f 300,
+// strong barrel distortion (k1 −0.3, k2 0.12, k3 −0.02), 34 px at the corners.
+inline core::CameraModel ThermalCamera() {
+  core::CameraModel camera;
+  camera.width = 320;
+  camera.height = 240;
+  camera.type = core::CameraModelType::kOpenCV;
+  camera.fx = 300;
+  camera.fy = 300.5;
+  camera.cx = 161.2;
+  camera.cy = 118.4;
+  camera.distortion = {-0.3, 0.12, 0, 0, -0.02};
+  return camera;
+}
 
 // Depth (along the optical axis) of the plane {x : n·x = offset} (world frame) seen from
 // world_from_camera; 0 where the ray misses it or meets it behind the camera.
