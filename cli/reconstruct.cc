@@ -17,6 +17,7 @@
 #include "core/progress.h"
 #include "core/scan.h"
 #include "core/strings.h"
+#include "cli/reconstruct_thermal.h"
 
 namespace hw::cli {
 
@@ -128,7 +129,8 @@ std::string ErrorStatsJson(const reconstruct::ErrorStats& e) {
 std::string ReportJson(const ReconstructCommandOptions& options, const core::Scan& scan,
                        const ReconstructCommandResult& r,
                        const reconstruct::Reconstruction& reconstruction,
-                       const reconstruct::ScanReconstruction& run) {
+                       const reconstruct::ScanReconstruction& run,
+                       const reconstruct::ThermalFusion* thermal) {
   JsonObject summary, timings, memory, mesh, input;
   input.String("scan", scan.folder().string())
       .String("rig", scan.rig_path().string())
@@ -188,6 +190,7 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
     }
     all.Add("groundtruth_evaluation", eval.str());
   }
+  if (thermal) all.Add("thermal", ThermalJson(options, *thermal, *r.thermal));
   all.Add("warnings", JsonArray(warnings, "  ")).Add("frames", JsonArray(frames, "  "));
   return all.str() + "\n";
 }
@@ -204,6 +207,13 @@ std::string ReconstructCommandOptions::Check() const {
   if (scan_folder.empty()) return "scan: must be given";
   if (out_folder.empty()) return "--out: must be given";
   if (std::string m = reconstruction.Check(); !m.empty()) return m;
+  if (std::string m = thermal_fusion.Check(); !m.empty()) return "thermal." + m;
+  if (emissivity_from_truth && !emissivity_path.empty()) {
+    return "--emissivity-from-truth: cannot be combined with --emissivity";
+  }
+  if (emissivity_from_truth && !scan.start_at_groundtruth) {
+    return "--emissivity-from-truth: needs --start-at-groundtruth (the truth is in the scan's world frame)";
+  }
   return scan.Check();
 }
 
@@ -259,13 +269,24 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   ReconstructCommandResult r;
   r.out_folder = options.out_folder;
   for (const std::string& w : scan.warnings()) r.warnings.push_back(w);
+  std::string emissivity_source;
+  std::unique_ptr<reconstruct::ThermalFusion> thermal =
+      MakeThermalFusion(options, scan, r.warnings, emissivity_source);
   reconstruct::ScanReconstruction run;
   {
     std::unique_ptr<core::ProgressBar> bar;
-    run = reconstruct::ReconstructScan(scan, reconstruction, options.scan, [&](int done, int total) {
-      if (!bar) bar = std::make_unique<core::ProgressBar>("reconstruct", total, "frames", quiet);
-      bar->Set(done);
-    });
+    run = reconstruct::ReconstructScan(
+        scan, reconstruction, options.scan,
+        [&](int done, int total) {
+          if (!bar) bar = std::make_unique<core::ProgressBar>("reconstruct", total, "frames", quiet);
+          bar->Set(done);
+        },
+        thermal.get());
+  }
+  if (thermal) {
+    r.thermal.emplace();
+    r.thermal->emissivity = emissivity_source;
+    SummarizeThermal(*thermal, run, scan, *r.thermal);
   }
   r.warnings.insert(r.warnings.end(), run.warnings.begin(), run.warnings.end());
   r.load_seconds = run.load_seconds;
@@ -327,16 +348,28 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     for (const Eigen::Vector3f& p : mesh.positions) points.push_back(truth_from_model * p.cast<double>());
     r.surface = reconstruct::SummarizeDistances(
         reconstruct::PointToMeshDistances(points, truth.Positions(), truth.faces, kSurfaceSearchM));
+    if (thermal && truth.Find("temperature_c")) {
+      std::vector<Eigen::Vector3f> points_in_truth;
+      points_in_truth.reserve(points.size());
+      for (const Eigen::Vector3d& p : points) points_in_truth.push_back(p.cast<float>());
+      EvaluateThermalMethods(*thermal, mesh.positions, points_in_truth, mesh.faces,
+                             reconstruct::ReadTemperatureTruth(truth_mesh), *r.thermal);
+    }
   }
 
   core::PlyMesh ply = reconstruct::ToPly(mesh);
+  if (thermal) {
+    const reconstruct::PointTemperatures t = thermal->Sample(mesh.positions, thermal->options().method);
+    for (uint16_t views : t.views) r.thermal->vertices_observed += views > 0;
+    AddTemperatureProperties(t, ply);
+  }
   ply.comments.push_back("heatwave reconstruct: world frame, metres");
   core::WriteTumTrajectory(options.out_folder / "trajectory.txt", reconstruction.trajectory());
   core::WritePly(options.out_folder / "model.ply", ply);
   r.peak_rss_bytes = PeakRssBytes();
   r.total_seconds = Seconds(start);
   core::WriteFileAtomically(options.out_folder / "reconstruct.json",
-                            ReportJson(options, scan, r, reconstruction, run));
+                            ReportJson(options, scan, r, reconstruction, run, thermal.get()));
   folder.Commit();
   return r;
 }
@@ -377,6 +410,7 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                               1000 * r.surface->median_m, 1000 * r.surface->p90_m,
                               r.surface->beyond_search, r.surface->points, 1000 * kSurfaceSearchM);
   }
+  if (r.thermal) out += FormatThermalSummary(*r.thermal);
   constexpr size_t kMaxListed = 8;
   if (!r.warnings.empty()) {
     out += core::StringPrintf("Warnings   %zu (all in reconstruct.json)\n", r.warnings.size());
@@ -423,12 +457,46 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--first-frame", o.scan.first_frame, "first depth frame to use")->capture_default_str();
   app.add_option("--max-frames", o.scan.max_frames, "number of depth frames to use, 0 = all")
       ->capture_default_str();
+  auto& t = o.thermal_fusion;
+  bool no_thermal = false;
+  app.add_flag("--no-thermal", no_thermal, "do not fuse the thermal stream (model without temperature)");
+  std::string method = reconstruct::ThermalMethodName(t.method);
+  app.add_option("--thermal-method", method,
+                 "estimate written to temperature_c: latest, mean, capped-mean, online (the paper's rule), "
+                 "offline (robust confidence-weighted mean)")
+      ->capture_default_str();
+  app.add_option("--recency-bias", t.recency_bias, "b of the online rule, [0, 1]")->capture_default_str();
+  std::vector<double> powers = {t.confidence.motion_power, t.confidence.distortion_power, t.confidence.angle_power,
+                                t.confidence.distance_power, t.confidence.operating_power};
+  app.add_option("--confidence-powers", powers,
+                 "powers p1..p5 of the ray confidence's motion, lens distortion, angle, distance and "
+                 "operating-condition terms (0 switches one off)")
+      ->expected(5)
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--min-ray-confidence", t.min_ray_confidence, "rays below this confidence are not fused")
+      ->capture_default_str();
+  app.add_option("--emissivity", o.emissivity_path,
+                 "emissivity file: regions of other emissivity / reflected temperature (README)");
+  app.add_flag("--emissivity-from-truth", o.emissivity_from_truth,
+               "synthetic scans: emissivity from truth/scene.ply (needs --start-at-groundtruth)");
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  o.thermal = !no_thermal;
+  t.confidence.motion_power = powers[0];
+  t.confidence.distortion_power = powers[1];
+  t.confidence.angle_power = powers[2];
+  t.confidence.distance_power = powers[3];
+  t.confidence.operating_power = powers[4];
   r.integrate_colour = !no_colour;
   // Truncation follows the voxel: 4 voxels keeps the band about as wide as the sensor's noise
   // at the default size, and a coarser volume still has voxels on both sides of a surface.
   r.tsdf.truncation_m = truncation_m.value_or(kTruncationVoxels * r.tsdf.voxel_size_m);
   return RunGuarded([&] {
+    const std::optional<reconstruct::ThermalMethod> parsed_method = reconstruct::ParseThermalMethod(method);
+    if (!parsed_method) {
+      throw UsageError("--thermal-method: must be latest, mean, capped-mean, online or offline, got '" + method + "'");
+    }
+    t.method = *parsed_method;
     ThrowIfInvalid(o.Check());
     const ReconstructCommandResult result = RunReconstruction(o, common.quiet);
     if (!common.quiet) std::cout << FormatReconstructSummary(result) << std::flush;

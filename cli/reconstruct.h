@@ -10,6 +10,7 @@
 
 #include "reconstruct/reconstruction.h"
 #include "reconstruct/surface_eval.h"
+#include "reconstruct/thermal_eval.h"
 #include "reconstruct/trajectory_eval.h"
 
 namespace hw::cli {
@@ -21,8 +22,31 @@ struct ReconstructCommandOptions {
   bool overwrite = false;          // replace an earlier reconstruction's files in out_folder
   reconstruct::ReconstructionOptions reconstruction;
   reconstruct::ScanReconstructionOptions scan;
+  // Thermal fusion, when the scan has a thermal stream and thermal is true.
+  bool thermal = true;
+  reconstruct::ThermalFusionOptions thermal_fusion;
+  std::filesystem::path emissivity_path;  // user emissivity file; empty: rig.yaml's for all
+  // Synthetic scans: each region's emissivity from truth/scene.ply (needs
+  // scan.start_at_groundtruth), to measure fusion without the error of a wrong emissivity.
+  bool emissivity_from_truth = false;
 
   std::string Check() const;
+};
+
+// What thermal fusion did (reconstruct.json "thermal"), for the summary and the tests.
+struct ThermalCommandResult {
+  int frames = 0;  // thermal frames of the scan
+  int fused = 0, frozen = 0, no_pose = 0, no_surface = 0, missing = 0, after_end = 0;
+  int64_t rays = 0, hits = 0, rays_fused = 0;  // over all frames given to fusion
+  size_t regions = 0, observations = 0, memory_bytes = 0;
+  int64_t offline_rejected = 0;
+  double seconds = 0, load_seconds = 0, finish_seconds = 0;
+  double raycast_ms = 0, fuse_ms = 0;  // mean per fused frame
+  int vertices_observed = 0;           // model vertices with a temperature
+  std::string method;                  // the estimate written to temperature_c
+  std::string emissivity;              // where emissivity came from
+  // Synthetic scans: every method's surface-temperature error against truth/scene.ply.
+  std::vector<std::pair<reconstruct::ThermalMethod, reconstruct::TemperatureErrorStats>> evaluation;
 };
 
 // What a run produced, for the summary and the tests.
@@ -43,12 +67,18 @@ struct ReconstructCommandResult {
   // Model vertices (in the truth's frame: see RunReconstruction) to truth/scene.ply, when
   // the scan has both (synthetic scans).
   std::optional<reconstruct::SurfaceDistanceStats> surface;
+  std::optional<ThermalCommandResult> thermal;  // when the scan has thermal frames and a
+                                                // thermal camera, and options.thermal
   std::vector<std::string> warnings;
 };
 
-// Runs the whole job: opens the scan, reconstructs, writes out_folder/trajectory.txt,
+// Runs the whole job: opens the scan, reconstructs (fusing the thermal stream when there is
+// one: model.ply then carries temperature_c, temperature_apparent_c, temperature_confidence,
+// temperature_views and temperature_std_c per vertex, NaN / 0 views where unobserved),
+// writes out_folder/trajectory.txt,
 // model.ply and reconstruct.json (each atomically; the folder is marked incomplete until all
-// three are written, core/output_folder.h). Throws core::InputError for a bad scan or frame,
+// three are written, core/output_folder.h). Throws core::InputError for a bad scan or frame
+// (or emissivity file),
 // core::OutputError when out_folder is a file or cannot be written, UsageError for a
 // non-empty out_folder without overwrite. Asserts options.Check() is empty.
 ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& options, bool quiet);

@@ -401,9 +401,59 @@ FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb)
   return frame;
 }
 
+namespace {
+
+// Feeds a scan's thermal frames to a ThermalFusion in time order, each once the fused depth
+// poses reach it.
+class ThermalFeeder {
+ public:
+  ThermalFeeder(const core::Scan& scan, ThermalFusion* fusion, ScanReconstruction& out)
+      : scan_(scan), fusion_(fusion), out_(out),
+        n_(fusion ? scan.NumFrames(core::Stream::kThermal) : 0) {}
+
+  // Fuses the frames the trajectory now reaches; with `flush`, all remaining ones (those past
+  // the trajectory's end are only counted).
+  void Feed(const Reconstruction& reconstruction, bool flush) {
+    using core::Stream;
+    while (next_ < n_) {
+      const double t = scan_.Timestamp(Stream::kThermal, next_);
+      if (!flush && !fusion_->PoseAvailable(t, reconstruction.trajectory())) return;
+      const int i = next_++;
+      if (flush && !fusion_->PoseAvailable(t, reconstruction.trajectory())) {
+        ++out_.thermal_after_end;
+        continue;
+      }
+      if (!scan_.FrameExists(Stream::kThermal, i)) {
+        ++out_.thermal_missing_frames;
+        out_.warnings.push_back(core::StringPrintf("thermal frame %d at %.6f s: %s is missing, skipped", i, t,
+                                                   scan_.FramePath(Stream::kThermal, i).c_str()));
+        continue;
+      }
+      auto start = std::chrono::steady_clock::now();
+      ThermalFrameInput frame;
+      frame.index = i;
+      frame.timestamp_s = t;
+      frame.apparent_c = scan_.LoadThermal(i);
+      out_.thermal_load_seconds += Ms(start) / 1000;
+      start = std::chrono::steady_clock::now();
+      fusion_->AddFrame(reconstruction.volume(), frame, reconstruction.trajectory());
+      out_.thermal_seconds += Ms(start) / 1000;
+      ++out_.thermal_frames;
+    }
+  }
+
+ private:
+  const core::Scan& scan_;
+  ThermalFusion* fusion_;
+  ScanReconstruction& out_;
+  int n_ = 0, next_ = 0;
+};
+
+}  // namespace
+
 ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
                                    const ScanReconstructionOptions& options,
-                                   const std::function<void(int, int)>& frame_done) {
+                                   const std::function<void(int, int)>& frame_done, ThermalFusion* thermal) {
   assert(options.Check().empty());
   using core::Stream;
   ScanReconstruction out;
@@ -412,6 +462,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
   const int last = options.max_frames > 0 ? std::min(n, first + options.max_frames) : n;
   const bool use_rgb = reconstruction.options().integrate_colour && scan.rig().rgb &&
                        scan.NumFrames(Stream::kRgb) > 0;
+  ThermalFeeder feeder(scan, thermal, out);
   for (int i = first; i < last; ++i) {
     const double t = scan.Timestamp(Stream::kDepth, i);
     if (!scan.FrameExists(Stream::kDepth, i)) {
@@ -449,7 +500,14 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
           "depth frame %d at %.6f s: only %.1f %% of pixels have depth, skipped", i, t,
           100 * record.valid_depth_fraction));
     }
+    if (thermal && record.fused) feeder.Feed(reconstruction, false);
     if (frame_done) frame_done(i - first + 1, last - first);
+  }
+  if (thermal) {
+    feeder.Feed(reconstruction, true);
+    const auto finish_start = std::chrono::steady_clock::now();
+    thermal->Finish();
+    out.thermal_finish_seconds = Ms(finish_start) / 1000;
   }
   if (reconstruction.trajectory().empty()) {
     throw core::InputError(scan.IndexPath(Stream::kDepth),

@@ -23,6 +23,7 @@
 #include "reconstruct/icp.h"
 #include "reconstruct/marching_cubes.h"
 #include "reconstruct/raycast.h"
+#include "reconstruct/thermal_fusion.h"
 #include "reconstruct/tsdf_volume.h"
 
 namespace hw::reconstruct {
@@ -194,6 +195,12 @@ struct ScanReconstructionOptions {
 struct ScanReconstruction {
   std::vector<int> depth_frame_index;  // per FrameRecord: the scan's depth frame index
   int missing_frames = 0;              // depth frames whose file is missing (skipped)
+  // Thermal frames (with a ThermalFusion): given to it, missing files (skipped), and those
+  // after the last depth frame used (never posed, not given).
+  int thermal_frames = 0, thermal_missing_frames = 0, thermal_after_end = 0;
+  double thermal_load_seconds = 0;     // decoding thermal frames
+  double thermal_seconds = 0;          // ThermalFusion::AddFrame calls
+  double thermal_finish_seconds = 0;   // ThermalFusion::Finish (the offline estimate)
   std::vector<std::string> warnings;   // one line each: missing frames, lost frames, ...
   double load_seconds = 0;             // decoding frames
   double process_seconds = 0;          // AddFrame calls
@@ -201,12 +208,18 @@ struct ScanReconstruction {
 
 // Runs `reconstruction` over the depth frames of `scan` in order, with their associated rgb
 // frames (Scan::AssociatedFrame; the rgb exposure time is the rgb frame's depth-clock time).
+// With `thermal`, every thermal frame of the scan is fused into it as soon as the fused depth
+// poses reach its depth-clock time (as live capture would: the model then holds every depth
+// frame up to it), and ThermalFusion::Finish() is called at the end; thermal frames whose
+// file is missing are skipped with a warning, and Scan::LoadThermal's InputError (wrong size
+// or type) propagates.
 // Frames whose file is missing are skipped with a warning. Throws core::InputError (from
 // Scan::Load*) on a frame that cannot be decoded or has the wrong size or type, and when
 // no frame of the scan has usable depth; std::invalid_argument when start_at_groundtruth
 // finds no groundtruth pose. `frame_done(i, n)` is called after every frame.
 ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
                                    const ScanReconstructionOptions& options,
-                                   const std::function<void(int, int)>& frame_done = nullptr);
+                                   const std::function<void(int, int)>& frame_done = nullptr,
+                                   ThermalFusion* thermal = nullptr);
 
 }  // namespace hw::reconstruct

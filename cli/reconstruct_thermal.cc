@@ -1,0 +1,261 @@
+#include "cli/reconstruct_thermal.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "core/json.h"
+#include "core/radiometry.h"
+#include "core/strings.h"
+#include "reconstruct/emissivity_map.h"
+
+namespace hw::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using core::JsonArray;
+using core::JsonObject;
+using reconstruct::ThermalMethod;
+
+constexpr ThermalMethod kMethods[] = {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
+                                      ThermalMethod::kOnline, ThermalMethod::kOffline};
+
+// Truth emissivities are matched to model points within this distance (the truth mesh is
+// 3 mm fine at patch borders, 5 cm elsewhere: its vertices are not all near every point, so
+// the lookup is by nearest vertex; a few mm of model error do not change the material).
+constexpr double kTruthEmissivitySearchM = 0.05;
+
+}  // namespace
+
+std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructCommandOptions& options,
+                                                              const core::Scan& scan,
+                                                              std::vector<std::string>& warnings,
+                                                              std::string& emissivity_source) {
+  if (!options.thermal) return nullptr;
+  const core::Rig& rig = scan.rig();
+  if (!rig.thermal || !rig.thermal_settings) {
+    if (scan.NumFrames(core::Stream::kThermal) > 0) {
+      warnings.push_back("the rig has no thermal camera: the thermal frames are ignored and the model has no temperature");
+    }
+    return nullptr;
+  }
+  if (scan.NumFrames(core::Stream::kThermal) == 0) {
+    warnings.push_back("the scan has no thermal frames: the model is written without temperature");
+    return nullptr;
+  }
+  reconstruct::EmissivityMap emissivity(*rig.thermal_settings);
+  emissivity_source = core::StringPrintf("rig.yaml: %.3f everywhere, reflected %.2f °C",
+                                         rig.thermal_settings->emissivity, rig.thermal_settings->reflected_c);
+  if (!options.emissivity_path.empty()) {
+    emissivity = reconstruct::EmissivityMap::Read(options.emissivity_path, *rig.thermal_settings);
+    emissivity_source = core::StringPrintf("%s: %d regions", options.emissivity_path.c_str(), emissivity.num_regions());
+  } else if (options.emissivity_from_truth) {
+    const fs::path truth_path = scan.folder() / "truth" / "scene.ply";
+    const reconstruct::TemperatureTruth truth = reconstruct::ReadTemperatureTruth(truth_path);
+    if (truth.emissivity.empty()) throw core::InputError(truth_path, "has no emissivity property");
+    std::vector<Eigen::Vector3f> points;
+    std::vector<double> values;
+    std::vector<core::EmissivityLaw> laws;
+    for (size_t i = 0; i < truth.vertices.size(); ++i) {
+      points.push_back(truth.vertices[i].cast<float>());
+      values.push_back(truth.emissivity[i]);
+      // The truth stores no law; the fixtures' low-emissivity patches are bare metal, and
+      // only a metal's Fresnel index reaches below MaxMetalNormalEmissivity.
+      laws.push_back(truth.emissivity[i] <= core::MaxMetalNormalEmissivity() ? core::EmissivityLaw::kMetal
+                                                                             : core::EmissivityLaw::kDielectric);
+    }
+    emissivity = reconstruct::EmissivityMap::FromPoints(*rig.thermal_settings, std::move(points), std::move(values),
+                                                        std::move(laws), kTruthEmissivitySearchM);
+    emissivity_source = "truth/scene.ply (per vertex; metal below " +
+                        core::StringPrintf("%.2f", core::MaxMetalNormalEmissivity()) + ")";
+  }
+  reconstruct::ThermalFusionOptions fusion_options = options.thermal_fusion;
+  fusion_options.min_depth_m = options.reconstruction.min_depth_m;
+  fusion_options.max_depth_m = options.reconstruction.max_depth_m;
+  fusion_options.num_threads = options.reconstruction.num_threads;
+  return std::make_unique<reconstruct::ThermalFusion>(rig, fusion_options, std::move(emissivity),
+                                                      scan.ffc_timestamps_s());
+}
+
+void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruct::ScanReconstruction& run,
+                      const core::Scan& scan, ThermalCommandResult& r) {
+  using reconstruct::ThermalFrameStatus;
+  r.frames = scan.NumFrames(core::Stream::kThermal);
+  r.missing = run.thermal_missing_frames;
+  r.after_end = run.thermal_after_end;
+  r.seconds = run.thermal_seconds;
+  r.load_seconds = run.thermal_load_seconds;
+  r.finish_seconds = run.thermal_finish_seconds;
+  for (const reconstruct::ThermalFrameRecord& f : fusion.frames()) {
+    r.fused += f.status == ThermalFrameStatus::kFused;
+    r.frozen += f.status == ThermalFrameStatus::kFrozen;
+    r.no_pose += f.status == ThermalFrameStatus::kNoPose;
+    r.no_surface += f.status == ThermalFrameStatus::kNoSurface;
+    r.rays += f.rays;
+    r.hits += f.hits;
+    r.rays_fused += f.fused;
+    if (f.status == ThermalFrameStatus::kFused) {
+      r.raycast_ms += f.raycast_ms;
+      r.fuse_ms += f.fuse_ms;
+    }
+  }
+  if (r.fused > 0) {
+    r.raycast_ms /= r.fused;
+    r.fuse_ms /= r.fused;
+  }
+  r.regions = fusion.NumRegions();
+  r.observations = fusion.NumObservations();
+  r.memory_bytes = fusion.MemoryBytes();
+  r.offline_rejected = fusion.OfflineRejected();
+  r.method = reconstruct::ThermalMethodName(fusion.options().method);
+}
+
+void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::PlyMesh& ply) {
+  const auto to_double = [](const auto& v) { return std::vector<double>(v.begin(), v.end()); };
+  ply.AddProperty("temperature_c", core::PlyType::kFloat32, to_double(t.surface_c));
+  ply.AddProperty("temperature_apparent_c", core::PlyType::kFloat32, to_double(t.apparent_c));
+  ply.AddProperty("temperature_confidence", core::PlyType::kFloat32, to_double(t.confidence));
+  ply.AddProperty("temperature_views", core::PlyType::kUInt16, to_double(t.views));
+  ply.AddProperty("temperature_std_c", core::PlyType::kFloat32, to_double(t.std_c));
+}
+
+void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
+                            const std::vector<Eigen::Vector3f>& model_vertices_in_model,
+                            const std::vector<Eigen::Vector3f>& model_vertices_in_truth,
+                            const std::vector<Eigen::Vector3i>& faces, const reconstruct::TemperatureTruth& truth,
+                            ThermalCommandResult& result) {
+  std::optional<reconstruct::TemperatureComparison> comparison;
+  for (ThermalMethod method : kMethods) {
+    const reconstruct::PointTemperatures t = fusion.Sample(model_vertices_in_model, method);
+    const std::vector<double> estimate(t.surface_c.begin(), t.surface_c.end());
+    if (!comparison) {
+      comparison = reconstruct::CompareTemperatures(model_vertices_in_truth, faces, estimate, truth,
+                                                    reconstruct::TemperatureErrorOptions{});
+    }
+    result.evaluation.emplace_back(method, reconstruct::TemperatureErrors(*comparison, estimate));
+  }
+}
+
+std::string ThermalJson(const ReconstructCommandOptions& options, const reconstruct::ThermalFusion& fusion,
+                        const ThermalCommandResult& r) {
+  const reconstruct::ThermalFusionOptions& o = fusion.options();
+  const reconstruct::ThermalConfidenceOptions& c = o.confidence;
+  JsonObject confidence, offline, settings, summary, timings;
+  confidence.Number("motion_power", c.motion_power)
+      .Number("distortion_power", c.distortion_power)
+      .Number("angle_power", c.angle_power)
+      .Number("distance_power", c.distance_power)
+      .Number("operating_power", c.operating_power)
+      .Number("integration_time_s", c.integration_time_s)
+      .Number("motion_blur_px", c.motion_blur_px)
+      .Number("distortion_px", c.distortion_px)
+      .Number("max_angle_deg", c.max_angle_deg)
+      .Number("reference_distance_m", c.reference_distance_m)
+      .Number("ffc_settle_s", c.ffc_settle_s)
+      .Number("ffc_ramp_s", c.ffc_ramp_s)
+      .Number("drift_onset_s", c.drift_onset_s)
+      .Number("drift_time_s", c.drift_time_s);
+  offline.Number("outlier_sigmas", o.offline.outlier_sigmas).Number("min_sigma_k", o.offline.min_sigma_k);
+  settings.String("method", reconstruct::ThermalMethodName(o.method))
+      .String("emissivity", r.emissivity)
+      .Number("recency_bias", o.recency_bias)
+      .Number("capped_mean_max_weight", o.capped_mean_max_weight)
+      .Number("min_ray_confidence", o.min_ray_confidence)
+      .Number("max_pose_gap_s", o.max_pose_gap_s)
+      .Bool("keep_observations", o.keep_observations)
+      .Add("confidence", confidence.str())
+      .Add("offline", offline.str());
+  summary.Int("frames", r.frames)
+      .Int("fused", r.fused)
+      .Int("frozen", r.frozen)
+      .Int("no_pose", r.no_pose)
+      .Int("no_surface", r.no_surface)
+      .Int("missing", r.missing)
+      .Int("after_end", r.after_end)
+      .Int("rays", r.rays)
+      .Int("hits", r.hits)
+      .Int("rays_fused", r.rays_fused)
+      .Number("fraction_fused", r.rays > 0 ? static_cast<double>(r.rays_fused) / r.rays : 0)
+      .Int("regions", static_cast<int64_t>(r.regions))
+      .Int("observations", static_cast<int64_t>(r.observations))
+      .Int("offline_rejected", r.offline_rejected)
+      .Int("vertices_with_temperature", r.vertices_observed)
+      .Int("memory_bytes", static_cast<int64_t>(r.memory_bytes));
+  timings.Number("fusion_s", r.seconds)
+      .Number("load_s", r.load_seconds)
+      .Number("offline_s", r.finish_seconds)
+      .Number("mean_raycast_ms", r.raycast_ms)
+      .Number("mean_fuse_ms", r.fuse_ms);
+  JsonObject all;
+  all.Add("settings", settings.str()).Add("summary", summary.str()).Add("timings", timings.str());
+  if (!r.evaluation.empty()) {
+    std::vector<std::string> methods;
+    for (const auto& [method, e] : r.evaluation) {
+      JsonObject m;
+      m.String("method", reconstruct::ThermalMethodName(method))
+          .Int("vertices", e.vertices)
+          .Int("observed", e.observed)
+          .Int("compared", e.compared)
+          .Int("compared_uniform", e.compared_uniform)
+          .Number("rmse_k", e.rmse_k)
+          .Number("p95_abs_k", e.p95_abs_k)
+          .Number("mean_k", e.mean_k)
+          .Number("max_abs_k", e.max_abs_k)
+          .Number("rmse_uniform_k", e.rmse_uniform_k)
+          .Number("p95_abs_uniform_k", e.p95_abs_uniform_k)
+          .Number("mean_uniform_k", e.mean_uniform_k);
+      methods.push_back(m.str());
+    }
+    all.Add("truth_evaluation", JsonArray(methods, "    "));
+  }
+  std::vector<std::string> frames;
+  for (const reconstruct::ThermalFrameRecord& f : fusion.frames()) {
+    JsonObject j;
+    j.Int("thermal_frame", f.index)
+        .Number("timestamp_s", f.timestamp_s)
+        .Number("depth_clock_s", f.depth_clock_s)
+        .String("status", reconstruct::ThermalFrameStatusName(f.status))
+        .Number("time_since_ffc_s", f.time_since_ffc_s)
+        .Number("linear_speed_mps", f.linear_speed_mps)
+        .Number("angular_speed_dps", f.angular_speed_dps)
+        .Int("rays", f.rays)
+        .Int("hits", f.hits)
+        .Int("fused", f.fused)
+        .Int("low_confidence", f.low_confidence)
+        .Int("no_normal", f.no_normal)
+        .Int("no_surface_temperature", f.no_surface_temperature)
+        .Number("mean_confidence", f.mean_confidence)
+        .Int("regions_updated", f.regions_updated)
+        .Number("raycast_ms", f.raycast_ms)
+        .Number("fuse_ms", f.fuse_ms);
+    frames.push_back(j.str());
+  }
+  all.Add("frames", JsonArray(frames, "  "));
+  (void)options;
+  return all.str();
+}
+
+std::string FormatThermalSummary(const ThermalCommandResult& r) {
+  std::string out = core::StringPrintf(
+      "Thermal    %d frames: %d fused, %d frozen (shutter), %d without pose, %d after the last depth pose, "
+      "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f)\n",
+      r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
+      r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms);
+  out += core::StringPrintf("           %d vertices with temperature (%s), %zu regions, %.1f MB; emissivity: %s\n",
+                            r.vertices_observed, r.method.c_str(), r.regions, r.memory_bytes / 1e6,
+                            r.emissivity.c_str());
+  if (!r.evaluation.empty()) {
+    out += "           vs truth/scene.ply, K   RMSE    p95   bias | uniform: RMSE    p95   bias\n";
+    for (const auto& [method, e] : r.evaluation) {
+      out += core::StringPrintf("           %-12s      %6.3f %6.3f %6.3f |          %6.3f %6.3f %6.3f\n",
+                                reconstruct::ThermalMethodName(method).c_str(), e.rmse_k, e.p95_abs_k, e.mean_k,
+                                e.rmse_uniform_k, e.p95_abs_uniform_k, e.mean_uniform_k);
+    }
+  }
+  return out;
+}
+
+}  // namespace hw::cli

@@ -1,0 +1,157 @@
+#pragma once
+
+// Temperature on the model (HeatWave, Moghadam & Vidas, CSIRO, §2.2): every thermal pixel's
+// ray is cast through the thermal lens model into the fused TSDF; the surface it meets gets
+// an observation — apparent temperature and, corrected for emissivity (at the viewing angle)
+// and reflected temperature, surface temperature — with the ray's confidence
+// C_R = Π c_i^p_i (thermal_confidence.h). Observations are splatted with trilinear weights
+// onto the 8 voxels around the hit (a "region" is a voxel: 5 mm at the default voxel size)
+// and merged per frame; each voxel then keeps, side by side, the estimates of every update
+// rule (thermal_update.h) so that they can be compared on one run: the latest observation,
+// the plain mean, voxblox's capped running mean, the paper's online rule, and (after the
+// scan, from every observation kept) the robust offline mean with the spread across views.
+// A mesh vertex reads the voxels of its cell, trilinearly weighted, observed ones only.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "core/radiometry.h"
+#include "core/rig.h"
+#include "core/trajectory.h"
+#include "reconstruct/camera_rays.h"
+#include "reconstruct/emissivity_map.h"
+#include "reconstruct/raycast.h"
+#include "reconstruct/thermal_confidence.h"
+#include "reconstruct/thermal_update.h"
+#include "reconstruct/tsdf_volume.h"
+
+namespace hw::reconstruct {
+
+struct ThermalFusionOptions {
+  ThermalConfidenceOptions confidence;
+  // b of the online rule: 0 keeps the most confident view, 1 always takes the newest one.
+  // 0.1: a view 0.1 less confident than the region's best still moves it a little, so a
+  // surface that changes temperature during the scan is followed (the paper leaves b to
+  // the user). [0, 1].
+  double recency_bias = 0.1;
+  // Weight cap of the capped running mean (voxblox's intensity integrator default is 100
+  // observations; thermal regions see tens of frames, so the cap rarely bites). >= 1.
+  double capped_mean_max_weight = 100;
+  OfflineOptions offline;
+  // Rays whose confidence is below this are not fused at all: a zero-confidence view can
+  // still move the online estimate (Q = b − C_A > 0), and it carries no information. [0, 1).
+  double min_ray_confidence = 0.01;
+  // A thermal frame is fused only between two fused depth poses at most this far apart
+  // (depth clock): a tracking gap or the ends of the trajectory are not bridged. s, > 0.
+  double max_pose_gap_s = 0.1;
+  // The estimate written to temperature_c / temperature_apparent_c.
+  ThermalMethod method = ThermalMethod::kOffline;
+  // Keep every per-frame region observation for the offline estimate (16 bytes each, about
+  // 1 MB per thermal frame at 320×240); false: only the streaming rules (live use).
+  bool keep_observations = true;
+  // Depth range of the thermal rays, m (the pipeline sets it from its own).
+  double min_depth_m = 0.3;  // >= 0
+  double max_depth_m = 5.0;  // > min_depth_m
+  int num_threads = 0;       // 0: hardware concurrency
+
+  std::string Check() const;  // names the field (with its group, e.g. "confidence.motion_power")
+};
+
+// Why a thermal frame was not fused.
+enum class ThermalFrameStatus {
+  kFused,
+  kNoPose,    // no fused depth poses around its time within max_pose_gap_s
+  kFrozen,    // the same pixels as the previous frame (shutter closure: a stale image)
+  kNoSurface, // no ray met the model
+};
+std::string ThermalFrameStatusName(ThermalFrameStatus status);  // "fused", "no-pose", ...
+
+// What fusion did with one thermal frame.
+struct ThermalFrameRecord {
+  int index = 0;                 // the scan's thermal frame index (or order of arrival)
+  double timestamp_s = 0;        // thermal clock
+  double depth_clock_s = 0;      // timestamp_s + the rig's thermal time offset
+  ThermalFrameStatus status = ThermalFrameStatus::kNoPose;
+  double time_since_ffc_s = 0;   // NaN when unknown (no shutter event listed before it)
+  double linear_speed_mps = 0, angular_speed_dps = 0;  // thermal camera, from the trajectory
+  int rays = 0;                  // pixels with a ray through the lens model
+  int hits = 0;                  // rays that met the model
+  int fused = 0;                 // hits fused (confidence >= min_ray_confidence, a normal,
+                                 // a surface temperature)
+  int low_confidence = 0;        // hits rejected for confidence
+  int no_normal = 0;             // hits without a normal (rim of the observed surface)
+  int no_surface_temperature = 0;  // emissivity correction impossible (reading colder than
+                                   // the reflection alone), core::SurfaceFromApparent
+  double mean_confidence = 0;    // over fused rays
+  int regions_updated = 0;
+  double raycast_ms = 0, fuse_ms = 0;
+};
+
+// One thermal frame as the camera delivered it.
+struct ThermalFrameInput {
+  int index = 0;
+  double timestamp_s = 0;  // thermal clock, s
+  cv::Mat apparent_c;      // CV_32FC1 apparent temperature, °C, the rig's thermal size
+};
+
+// The estimate of one method at a set of points.
+struct PointTemperatures {
+  std::vector<float> surface_c;       // NaN where unobserved
+  std::vector<float> apparent_c;      // NaN where unobserved
+  std::vector<float> confidence;      // 0 where unobserved
+  std::vector<float> std_c;           // spread across views, NaN where unobserved
+  std::vector<uint16_t> views;        // frames that observed it, 0 where unobserved
+};
+
+class ThermalFusion {
+ public:
+  // Asserts options.Check() is empty and that the rig has a thermal camera and block.
+  // ffc_timestamps_s: thermal-clock flat-field events (Scan::ffc_timestamps_s), increasing.
+  ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& options, EmissivityMap emissivity,
+                std::vector<double> ffc_timestamps_s);
+  ~ThermalFusion();
+  ThermalFusion(ThermalFusion&&) noexcept;
+  ThermalFusion& operator=(ThermalFusion&&) noexcept;
+
+  // Depth-clock time of a thermal frame (timestamp_s + the rig's thermal time offset).
+  double DepthClockTime(double thermal_timestamp_s) const;
+  // True once `world_from_depth` holds a pose at or after the frame's depth-clock time, so
+  // that AddFrame can interpolate (live use: hold frames until then).
+  bool PoseAvailable(double thermal_timestamp_s, const core::Trajectory& world_from_depth) const;
+
+  // Fuses one frame: its pose is world_from_depth interpolated at its depth-clock time (a
+  // gap above max_pose_gap_s: kNoPose) composed with depth_from_thermal; its velocity the
+  // finite difference of the two poses around it. Throws std::invalid_argument when
+  // apparent_c is not CV_32FC1 of the rig's thermal size. Frames may come in any order
+  // (the online rule then follows arrival order).
+  const ThermalFrameRecord& AddFrame(const TsdfVolume& volume, const ThermalFrameInput& frame,
+                                     const core::Trajectory& world_from_depth);
+
+  // Computes the offline estimate from the kept observations (no-op without them). Call
+  // after the last frame; AddFrame after it invalidates it.
+  void Finish();
+
+  // Each method's estimate at world points (mesh vertices). kOffline before Finish() or
+  // without kept observations: unobserved everywhere.
+  PointTemperatures Sample(const std::vector<Eigen::Vector3f>& points_in_world,
+                           ThermalMethod method) const;
+
+  const std::vector<ThermalFrameRecord>& frames() const;
+  const ThermalFusionOptions& options() const;
+  size_t NumRegions() const;     // voxels with at least one observation
+  size_t NumObservations() const;  // kept for the offline estimate
+  size_t MemoryBytes() const;
+  // Rejections by the offline estimator over all regions (after Finish).
+  int64_t OfflineRejected() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace hw::reconstruct

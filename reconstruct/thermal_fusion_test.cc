@@ -1,0 +1,303 @@
+#include "reconstruct/thermal_fusion.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/radiometry.h"
+#include "reconstruct/tsdf_test_support.h"
+
+namespace hw::reconstruct {
+namespace {
+
+using test::LookAt;
+using test::RenderPlane;
+using test::SmallCamera;
+
+// The scene: the plane z = 1 m (world), facing the cameras at z < 1, with the analytic
+// surface temperature field below; emissivity and reflected temperature from the rig.
+constexpr double kPlaneZ = 1.0;
+double TrueSurfaceC(const Eigen::Vector3d& p) { return 30.0 + 5.0 * p.x() + 3.0 * p.y(); }
+
+core::Rig ThermalRig(bool distorted) {
+  core::Rig rig;
+  const PinholeCamera depth = SmallCamera();
+  rig.depth = core::CameraModel::Pinhole(depth.width, depth.height, depth.fx, depth.fy);
+  rig.depth.cx = depth.cx;
+  rig.depth.cy = depth.cy;
+  core::CameraModel thermal = core::CameraModel::Pinhole(80, 60, 64, 64);
+  if (distorted) {
+    thermal.type = core::CameraModelType::kOpenCV;
+    thermal.distortion = {-0.25, 0.08, 0.0005, -0.0004, 0.0};
+  }
+  rig.thermal = thermal;
+  rig.depth_from_thermal = core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY())),
+                                         Eigen::Vector3d(0.03, -0.01, 0.0));
+  rig.thermal_time_offset_s = 0.0;
+  rig.thermal_settings = core::ThermalSettings();
+  rig.thermal_settings->emissivity = 0.9;
+  rig.thermal_settings->reflected_c = 18.0;
+  EXPECT_EQ(rig.Check(), "");
+  return rig;
+}
+
+// A volume of the plane, fused from a few views around the thermal views.
+TsdfVolume PlaneVolume() {
+  TsdfVolume volume(test::SmallOptions());
+  const PinholeCamera camera = SmallCamera();
+  for (double x : {-0.15, 0.0, 0.15}) {
+    const core::Rigid3d pose = LookAt(Eigen::Vector3d(x, 0.05, 0.0), Eigen::Vector3d(0, 0, kPlaneZ));
+    volume.Integrate(RenderPlane(camera, pose, Eigen::Vector3d(0, 0, 1), kPlaneZ), camera, pose);
+  }
+  return volume;
+}
+
+// The thermal image of the plane from world_from_thermal: each pixel's ray through the lens
+// model, the apparent temperature of the analytic surface at the emissivity the correction
+// assumes (so that it inverts exactly), plus noise of std netd_k.
+cv::Mat RenderThermal(const core::Rig& rig, const core::Rigid3d& world_from_thermal, double netd_k,
+                      std::mt19937_64& rng, double offset_k = 0) {
+  const core::CameraModel& camera = *rig.thermal;
+  const core::BandRadiance band(rig.thermal_settings->spectral_band_um[0], rig.thermal_settings->spectral_band_um[1]);
+  std::normal_distribution<double> noise(0.0, netd_k);
+  cv::Mat image(camera.height, camera.width, CV_32FC1, cv::Scalar(rig.thermal_settings->reflected_c));
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const std::optional<Eigen::Vector3d> ray = camera.Unproject(Eigen::Vector2d(x, y));
+      if (!ray) continue;
+      const Eigen::Vector3d d = world_from_thermal.rotation * *ray;
+      const double t = (kPlaneZ - world_from_thermal.translation.z()) / d.z();
+      if (!(t > 0)) continue;
+      const Eigen::Vector3d p = world_from_thermal.translation + t * d;
+      const double cos_angle = d.normalized().z();
+      const double e = core::DirectionalEmissivity(core::EmissivityLaw::kDielectric,
+                                                   rig.thermal_settings->emissivity, cos_angle);
+      const double apparent =
+          core::ApparentFromSurface(band, TrueSurfaceC(p), e, rig.thermal_settings->reflected_c);
+      image.at<float>(y, x) = static_cast<float>(apparent + offset_k + (netd_k > 0 ? noise(rng) : 0.0));
+    }
+  }
+  return image;
+}
+
+// Depth poses (world_from_depth) every 1/30 s around a thermal view.
+core::Trajectory TrajectoryThrough(const std::vector<core::Rigid3d>& poses, double start_s = 0) {
+  core::Trajectory trajectory;
+  for (size_t i = 0; i < poses.size(); ++i) trajectory.Add(start_s + i / 30.0, poses[i]);
+  return trajectory;
+}
+
+// Points of the plane inside the region every view sees.
+std::vector<Eigen::Vector3f> PlanePoints() {
+  std::vector<Eigen::Vector3f> points;
+  for (double y = -0.1; y <= 0.1; y += 0.013) {
+    for (double x = -0.15; x <= 0.15; x += 0.013) points.emplace_back(x, y, kPlaneZ);
+  }
+  return points;
+}
+
+ThermalFusionOptions TestOptions() {
+  ThermalFusionOptions o;
+  o.num_threads = 2;
+  return o;
+}
+
+struct Views {
+  core::Trajectory trajectory;
+  std::vector<double> thermal_times_s;  // thermal clock = depth clock here
+};
+
+// A slow sideways sweep: depth poses every 1/30 s, a thermal frame between each two.
+Views Sweep(int frames, double speed_mps = 0.05) {
+  Views v;
+  std::vector<core::Rigid3d> poses;
+  for (int i = 0; i <= frames; ++i) {
+    const double x = -0.05 + speed_mps * i / 30.0;
+    poses.push_back(LookAt(Eigen::Vector3d(x, 0.02, 0.2), Eigen::Vector3d(x, 0.0, kPlaneZ)));
+  }
+  v.trajectory = TrajectoryThrough(poses);
+  for (int i = 0; i < frames; ++i) v.thermal_times_s.push_back((i + 0.5) / 30.0);
+  return v;
+}
+
+TEST(ThermalFusionTest, RecoversAnalyticSurfaceTemperatureThroughDistortedLens) {
+  const core::Rig rig = ThermalRig(true);
+  const TsdfVolume volume = PlaneVolume();
+  ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+  const Views views = Sweep(6);
+  std::mt19937_64 rng(1);
+  for (size_t i = 0; i < views.thermal_times_s.size(); ++i) {
+    const double t = views.thermal_times_s[i];
+    const core::Rigid3d world_from_thermal = *views.trajectory.At(t) * rig.depth_from_thermal;
+    ThermalFrameInput frame{static_cast<int>(i), t, RenderThermal(rig, world_from_thermal, 0.0, rng)};
+    const ThermalFrameRecord& record = fusion.AddFrame(volume, frame, views.trajectory);
+    ASSERT_EQ(record.status, ThermalFrameStatus::kFused) << ThermalFrameStatusName(record.status);
+    EXPECT_GT(record.fused, record.rays / 2);
+  }
+  fusion.Finish();
+  const std::vector<Eigen::Vector3f> points = PlanePoints();
+  for (ThermalMethod method : {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
+                               ThermalMethod::kOnline, ThermalMethod::kOffline}) {
+    const PointTemperatures t = fusion.Sample(points, method);
+    double max_error = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(t.surface_c[i])) << ThermalMethodName(method) << " point " << i;
+      max_error = std::max(max_error, std::abs(static_cast<double>(t.surface_c[i]) - TrueSurfaceC(points[i].cast<double>())));
+      EXPECT_GT(t.views[i], 0);
+    }
+    // A linear field splatted and read back trilinearly is exact up to the splat's spread
+    // along the plane within one voxel (1 cm · 5.8 K/m gradient · the asymmetry of a
+    // voxel's footprint, ≲ 0.03 K) and float rounding; a misplaced ray (a wrong lens model or
+    // pose) would be off by the gradient times its error (1 px ≈ 1.3 cm here: 0.08 K).
+    EXPECT_LT(max_error, 0.03) << ThermalMethodName(method);
+  }
+}
+
+TEST(ThermalFusionTest, NoiseAveragesDownAndSpreadMatchesNetd) {
+  const core::Rig rig = ThermalRig(false);
+  const TsdfVolume volume = PlaneVolume();
+  ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+  const int frames = 30;
+  const Views views = Sweep(frames, 0.0);  // static: every view sees the same points
+  std::mt19937_64 rng(7);
+  constexpr double kNetdK = 0.05;
+  for (int i = 0; i < frames; ++i) {
+    const double t = views.thermal_times_s[i];
+    const core::Rigid3d world_from_thermal = *views.trajectory.At(t) * rig.depth_from_thermal;
+    fusion.AddFrame(volume, {i, t, RenderThermal(rig, world_from_thermal, kNetdK, rng)}, views.trajectory);
+  }
+  fusion.Finish();
+  const std::vector<Eigen::Vector3f> points = PlanePoints();
+  const PointTemperatures latest = fusion.Sample(points, ThermalMethod::kLatest);
+  const PointTemperatures offline = fusion.Sample(points, ThermalMethod::kOffline);
+  double se_latest = 0, se_offline = 0, spread = 0;
+  int n = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!std::isfinite(offline.surface_c[i])) continue;
+    const double truth = TrueSurfaceC(points[i].cast<double>());
+    se_latest += std::pow(static_cast<double>(latest.surface_c[i]) - truth, 2);
+    se_offline += std::pow(static_cast<double>(offline.surface_c[i]) - truth, 2);
+    spread += static_cast<double>(offline.std_c[i]);
+    ++n;
+  }
+  ASSERT_GT(n, static_cast<int>(points.size()) * 9 / 10);
+  const double rmse_latest = std::sqrt(se_latest / n), rmse_offline = std::sqrt(se_offline / n);
+  // Surface sigma = NETD / (emissivity-ish slope ≈ 0.9) ≈ 0.056 K per view; one frame's
+  // splat already averages a few rays per voxel (80×60 rays over the view's ~0.5 m², 1 cm
+  // voxels: ~1 ray per voxel), so the latest view is ≈ that; 30 views divide it by ~5.
+  EXPECT_LT(rmse_offline, rmse_latest / 3) << rmse_offline << " vs " << rmse_latest;
+  EXPECT_LT(rmse_offline, 0.03);
+  // The spread across views estimates the per-view noise (≈ 0.03–0.06 K with the splat's
+  // averaging), not 0 and not the gradient.
+  EXPECT_GT(spread / n, 0.01);
+  EXPECT_LT(spread / n, 0.08);
+}
+
+TEST(ThermalFusionTest, UnobservedPointsAreMarkedNotZero) {
+  const core::Rig rig = ThermalRig(false);
+  const TsdfVolume volume = PlaneVolume();
+  ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+  const Views views = Sweep(2, 0.0);
+  std::mt19937_64 rng(3);
+  const double t = views.thermal_times_s[0];
+  fusion.AddFrame(volume, {0, t, RenderThermal(rig, *views.trajectory.At(t) * rig.depth_from_thermal, 0, rng)},
+                  views.trajectory);
+  fusion.Finish();
+  // Far outside the thermal view (x = 2 m on the plane) and off the surface.
+  const std::vector<Eigen::Vector3f> points = {{2.0f, 0.0f, 1.0f}, {0.0f, 0.0f, 0.5f}};
+  for (ThermalMethod method : {ThermalMethod::kLatest, ThermalMethod::kOnline, ThermalMethod::kOffline}) {
+    const PointTemperatures s = fusion.Sample(points, method);
+    for (size_t i = 0; i < points.size(); ++i) {
+      EXPECT_TRUE(std::isnan(s.surface_c[i]));
+      EXPECT_TRUE(std::isnan(s.apparent_c[i]));
+      EXPECT_EQ(s.views[i], 0);
+      EXPECT_EQ(s.confidence[i], 0.0f);
+    }
+  }
+}
+
+TEST(ThermalFusionTest, FrozenFramesAndFramesWithoutPoseAreNotFused) {
+  const core::Rig rig = ThermalRig(false);
+  const TsdfVolume volume = PlaneVolume();
+  ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+  const Views views = Sweep(4);
+  std::mt19937_64 rng(5);
+  const double t0 = views.thermal_times_s[0];
+  const cv::Mat image = RenderThermal(rig, *views.trajectory.At(t0) * rig.depth_from_thermal, 0.04, rng);
+  EXPECT_EQ(fusion.AddFrame(volume, {0, t0, image}, views.trajectory).status, ThermalFrameStatus::kFused);
+  // The camera repeats the image during a shutter closure while the rig moves on.
+  EXPECT_EQ(fusion.AddFrame(volume, {1, views.thermal_times_s[1], image.clone()}, views.trajectory).status,
+            ThermalFrameStatus::kFrozen);
+  // Before the first depth pose and after the last: no pose to interpolate.
+  const cv::Mat other = RenderThermal(rig, *views.trajectory.At(t0) * rig.depth_from_thermal, 0.04, rng);
+  EXPECT_EQ(fusion.AddFrame(volume, {2, -0.01, other}, views.trajectory).status, ThermalFrameStatus::kNoPose);
+  const cv::Mat third = RenderThermal(rig, *views.trajectory.At(t0) * rig.depth_from_thermal, 0.04, rng);
+  EXPECT_EQ(fusion.AddFrame(volume, {3, 10.0, third}, views.trajectory).status, ThermalFrameStatus::kNoPose);
+  // A gap in the trajectory wider than max_pose_gap_s (a lost stretch) is not bridged.
+  core::Trajectory gapped;
+  gapped.Add(0.0, views.trajectory.poses()[0].world_from_sensor);
+  gapped.Add(0.5, views.trajectory.poses()[1].world_from_sensor);
+  const cv::Mat fourth = RenderThermal(rig, *views.trajectory.At(t0) * rig.depth_from_thermal, 0.04, rng);
+  EXPECT_EQ(fusion.AddFrame(volume, {4, 0.25, fourth}, gapped).status, ThermalFrameStatus::kNoPose);
+  // Wrong image type or size: an error naming the frame.
+  EXPECT_THROW(fusion.AddFrame(volume, {5, t0, cv::Mat(60, 80, CV_16UC1, cv::Scalar(0))}, views.trajectory),
+               std::invalid_argument);
+  EXPECT_THROW(fusion.AddFrame(volume, {6, t0, cv::Mat(30, 40, CV_32FC1, cv::Scalar(0))}, views.trajectory),
+               std::invalid_argument);
+}
+
+TEST(ThermalFusionTest, OnlineRuleKeepsConfidentViewWhileLatestFollowsABadOne) {
+  const core::Rig rig = ThermalRig(false);
+  const TsdfVolume volume = PlaneVolume();
+  ThermalFusionOptions options = TestOptions();
+  options.recency_bias = 0.05;
+  ThermalFusion fusion(rig, options, EmissivityMap(*rig.thermal_settings), {});
+  std::mt19937_64 rng(9);
+  // A frontal view at 0.8 m, then a grazing one (60° to the normal) from farther that reads 3 K
+  // hot (a reflection, a misregistered frame).
+  const core::Rigid3d frontal = LookAt(Eigen::Vector3d(0, 0, 0.2), Eigen::Vector3d(0, 0, kPlaneZ));
+  const Eigen::Vector3d target(0, 0, kPlaneZ);
+  const core::Rigid3d grazing = LookAt(target + 1.6 * Eigen::Vector3d(std::sin(M_PI / 3), 0, -std::cos(M_PI / 3)),
+                                       target);
+  core::Trajectory frontal_trajectory = TrajectoryThrough({frontal, frontal});
+  fusion.AddFrame(volume, {0, 0.01, RenderThermal(rig, frontal * rig.depth_from_thermal, 0, rng)},
+                  frontal_trajectory);
+  core::Trajectory grazing_trajectory = TrajectoryThrough({grazing, grazing}, 1.0);
+  const ThermalFrameRecord& bad = fusion.AddFrame(
+      volume, {1, 1.01, RenderThermal(rig, grazing * rig.depth_from_thermal, 0, rng, 3.0)}, grazing_trajectory);
+  ASSERT_EQ(bad.status, ThermalFrameStatus::kFused);
+  fusion.Finish();
+  const std::vector<Eigen::Vector3f> points = {{0.0f, 0.0f, 1.0f}, {0.05f, 0.02f, 1.0f}, {-0.04f, -0.03f, 1.0f}};
+  const PointTemperatures latest = fusion.Sample(points, ThermalMethod::kLatest);
+  const PointTemperatures online = fusion.Sample(points, ThermalMethod::kOnline);
+  const PointTemperatures mean = fusion.Sample(points, ThermalMethod::kMean);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const double truth = TrueSurfaceC(points[i].cast<double>());
+    ASSERT_TRUE(std::isfinite(online.surface_c[i]));
+    // Latest takes the bad view whole; the plain mean half of it. The grazing view's
+    // confidence: c3 = cos 60° = 0.5, c4 = 1/1.6 (distance 1.6 m) → C_R ≈ 0.31 against the
+    // frontal view's ≈ 1 (c4 = 1 at 0.8 m): Q = clamp(0.31 − 1 + 0.05) = 0, so the online
+    // estimate does not move at all.
+    const double latest_error = static_cast<double>(latest.surface_c[i]) - truth;
+    EXPECT_GT(latest_error, 2.5);
+    EXPECT_NEAR(static_cast<double>(mean.surface_c[i]) - truth, latest_error / 2, 0.2);
+    EXPECT_NEAR(static_cast<double>(online.surface_c[i]), truth, 0.05);
+    EXPECT_GT(online.confidence[i], 0.9);
+  }
+}
+
+TEST(ThermalFusionTest, CheckNamesTheField) {
+  ThermalFusionOptions o;
+  o.recency_bias = 1.5;
+  EXPECT_NE(o.Check().find("recency_bias"), std::string::npos);
+  o = ThermalFusionOptions();
+  o.confidence.motion_power = -1;
+  EXPECT_EQ(o.Check().rfind("confidence.motion_power", 0), 0u) << o.Check();
+  o = ThermalFusionOptions();
+  o.max_pose_gap_s = 0;
+  EXPECT_NE(o.Check().find("max_pose_gap_s"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hw::reconstruct
