@@ -10,6 +10,7 @@
 #include "core/radiometry.h"
 #include "core/strings.h"
 #include "reconstruct/emissivity_map.h"
+#include "reconstruct/mesh_query.h"
 
 namespace hw::cli {
 
@@ -23,9 +24,8 @@ using reconstruct::ThermalMethod;
 constexpr ThermalMethod kMethods[] = {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
                                       ThermalMethod::kOnline, ThermalMethod::kOffline};
 
-// Truth emissivities are matched to model points within this distance (the truth mesh is
-// 3 mm fine at patch borders, 5 cm elsewhere: its vertices are not all near every point, so
-// the lookup is by nearest vertex; a few mm of model error do not change the material).
+// Truth emissivities are matched to model points within this distance of the truth surface
+// (the model is mm to cm off it; farther, the point is not on a surface the truth knows).
 constexpr double kTruthEmissivitySearchM = 0.05;
 
 }  // namespace
@@ -54,21 +54,33 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
     emissivity_source = core::StringPrintf("%s: %d regions", options.emissivity_path.c_str(), emissivity.num_regions());
   } else if (options.emissivity_from_truth) {
     const fs::path truth_path = scan.folder() / "truth" / "scene.ply";
-    const reconstruct::TemperatureTruth truth = reconstruct::ReadTemperatureTruth(truth_path);
-    if (truth.emissivity.empty()) throw core::InputError(truth_path, "has no emissivity property");
-    std::vector<Eigen::Vector3f> points;
-    std::vector<double> values;
-    std::vector<core::EmissivityLaw> laws;
-    for (size_t i = 0; i < truth.vertices.size(); ++i) {
-      points.push_back(truth.vertices[i].cast<float>());
-      values.push_back(truth.emissivity[i]);
-      // The truth stores no law; the fixtures' low-emissivity patches are bare metal, and
-      // only a metal's Fresnel index reaches below MaxMetalNormalEmissivity.
-      laws.push_back(truth.emissivity[i] <= core::MaxMetalNormalEmissivity() ? core::EmissivityLaw::kMetal
-                                                                             : core::EmissivityLaw::kDielectric);
-    }
-    emissivity = reconstruct::EmissivityMap::FromPoints(*rig.thermal_settings, std::move(points), std::move(values),
-                                                        std::move(laws), kTruthEmissivitySearchM);
+    // The truth mesh, kept alive by the lookup; each query takes the closest truth point's
+    // triangle and, of its vertices, the one the point is nearest (no blending of materials
+    // across a patch border).
+    struct Truth {
+      reconstruct::TemperatureTruth mesh;
+      std::unique_ptr<reconstruct::TriangleGrid> grid;
+    };
+    auto truth = std::make_shared<Truth>();
+    truth->mesh = reconstruct::ReadTemperatureTruth(truth_path);
+    if (truth->mesh.emissivity.empty()) throw core::InputError(truth_path, "has no emissivity property");
+    truth->grid = std::make_unique<reconstruct::TriangleGrid>(truth->mesh.vertices, truth->mesh.faces,
+                                                              kTruthEmissivitySearchM);
+    emissivity = reconstruct::EmissivityMap::FromLookup(
+        *rig.thermal_settings, [truth](const Eigen::Vector3f& p, reconstruct::SurfaceEmissivity& out) {
+          const auto closest = truth->grid->FindClosest(p.cast<double>(), kTruthEmissivitySearchM);
+          if (!closest) return false;
+          int corner = 0;
+          closest->on_face.weights.maxCoeff(&corner);
+          const int vertex = truth->mesh.faces[closest->face][corner];
+          out.emissivity = truth->mesh.emissivity[vertex];
+          // The truth stores no law; the fixtures' low-emissivity patches are bare metal, and
+          // only a metal's Fresnel index reaches below MaxMetalNormalEmissivity.
+          out.law = out.emissivity <= core::MaxMetalNormalEmissivity() ? core::EmissivityLaw::kMetal
+                                                                      : core::EmissivityLaw::kDielectric;
+          out.region = vertex;
+          return true;
+        });
     emissivity_source = "truth/scene.ply (per vertex; metal below " +
                         core::StringPrintf("%.2f", core::MaxMetalNormalEmissivity()) + ")";
   }
@@ -206,7 +218,14 @@ std::string ThermalJson(const ReconstructCommandOptions& options, const reconstr
           .Number("max_abs_k", e.max_abs_k)
           .Number("rmse_uniform_k", e.rmse_uniform_k)
           .Number("p95_abs_uniform_k", e.p95_abs_uniform_k)
-          .Number("mean_uniform_k", e.mean_uniform_k);
+          .Number("mean_uniform_k", e.mean_uniform_k)
+          .Number("affine_gain", e.affine_gain)
+          .Number("affine_offset_k", e.affine_offset_k)
+          .Number("rmse_affine_k", e.rmse_affine_k)
+          .Number("p95_abs_affine_k", e.p95_abs_affine_k)
+          .Int("compared_low_emissivity", e.compared_low_emissivity)
+          .Number("rmse_low_emissivity_k", e.rmse_low_emissivity_k)
+          .Number("mean_low_emissivity_k", e.mean_low_emissivity_k);
       methods.push_back(m.str());
     }
     all.Add("truth_evaluation", JsonArray(methods, "    "));
@@ -248,11 +267,14 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
                             r.vertices_observed, r.method.c_str(), r.regions, r.memory_bytes / 1e6,
                             r.emissivity.c_str());
   if (!r.evaluation.empty()) {
-    out += "           vs truth/scene.ply, K   RMSE    p95   bias | uniform: RMSE    p95   bias\n";
+    out += "           vs truth/scene.ply (K)   all: RMSE    p95   bias | uniform: RMSE    p95   bias | "
+           "camera gain/offset removed: RMSE    p95 | emissivity < 0.5: RMSE   bias\n";
     for (const auto& [method, e] : r.evaluation) {
-      out += core::StringPrintf("           %-12s      %6.3f %6.3f %6.3f |          %6.3f %6.3f %6.3f\n",
+      out += core::StringPrintf("           %-12s           %6.3f %6.3f %6.3f |          %6.3f %6.3f %6.3f |"
+                                "                             %6.3f %6.3f |                 %6.3f %6.3f\n",
                                 reconstruct::ThermalMethodName(method).c_str(), e.rmse_k, e.p95_abs_k, e.mean_k,
-                                e.rmse_uniform_k, e.p95_abs_uniform_k, e.mean_uniform_k);
+                                e.rmse_uniform_k, e.p95_abs_uniform_k, e.mean_uniform_k, e.rmse_affine_k,
+                                e.p95_abs_affine_k, e.rmse_low_emissivity_k, e.mean_low_emissivity_k);
     }
   }
   return out;

@@ -224,74 +224,16 @@ void EmissivityMap::AddRegion(EmissivityRegion region) {
   regions_.push_back(std::move(region));
 }
 
-namespace {
-
-uint64_t PointCellKey(int x, int y, int z) {
-  constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
-  return (static_cast<uint64_t>(x) & kMask) | ((static_cast<uint64_t>(y) & kMask) << 21) |
-         ((static_cast<uint64_t>(z) & kMask) << 42);
-}
-
-}  // namespace
-
-EmissivityMap EmissivityMap::FromPoints(const core::ThermalSettings& rig_thermal,
-                                        std::vector<Eigen::Vector3f> points_in_world,
-                                        std::vector<double> emissivity, std::vector<core::EmissivityLaw> law,
-                                        double max_distance_m) {
-  assert(points_in_world.size() == emissivity.size() && emissivity.size() == law.size());
-  assert(max_distance_m > 0);
+EmissivityMap EmissivityMap::FromLookup(const core::ThermalSettings& rig_thermal, Lookup lookup) {
   EmissivityMap map(rig_thermal);
-  map.point_cell_m_ = static_cast<float>(max_distance_m);
-  map.points_ = std::move(points_in_world);
-  map.point_law_ = std::move(law);
-  map.point_emissivity_.reserve(emissivity.size());
-  for (size_t i = 0; i < emissivity.size(); ++i) {
-    assert(emissivity[i] >= core::ThermalSettings::kMinEmissivity && emissivity[i] <= 1);
-    map.point_emissivity_.push_back(static_cast<float>(emissivity[i]));
-    const Eigen::Vector3f& p = map.points_[i];
-    if (!p.allFinite()) continue;
-    const Eigen::Vector3f c = p / map.point_cell_m_;
-    map.point_cells_[PointCellKey(static_cast<int>(std::floor(c.x())), static_cast<int>(std::floor(c.y())),
-                                  static_cast<int>(std::floor(c.z())))]
-        .push_back(static_cast<int32_t>(i));
-  }
+  map.lookup_ = std::move(lookup);
   return map;
 }
 
-bool EmissivityMap::NearestPoint(const Eigen::Vector3f& point_in_world, SurfaceEmissivity& out) const {
-  if (!point_in_world.allFinite()) return false;
-  const Eigen::Vector3f c = point_in_world / point_cell_m_;
-  const int cx = static_cast<int>(std::floor(c.x())), cy = static_cast<int>(std::floor(c.y())),
-            cz = static_cast<int>(std::floor(c.z()));
-  float best = point_cell_m_ * point_cell_m_;
-  int32_t best_index = -1;
-  for (int dz = -1; dz <= 1; ++dz) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const auto it = point_cells_.find(PointCellKey(cx + dx, cy + dy, cz + dz));
-        if (it == point_cells_.end()) continue;
-        for (int32_t i : it->second) {
-          const float d2 = (points_[i] - point_in_world).squaredNorm();
-          if (d2 <= best) {
-            best = d2;
-            best_index = i;
-          }
-        }
-      }
-    }
-  }
-  if (best_index < 0) return false;
-  out = default_;
-  out.emissivity = point_emissivity_[best_index];
-  out.law = point_law_[best_index];
-  out.region = best_index;
-  return true;
-}
-
 SurfaceEmissivity EmissivityMap::At(const Eigen::Vector3f& point_in_world) const {
-  if (point_cell_m_ > 0) {
-    SurfaceEmissivity s;
-    return NearestPoint(point_in_world, s) ? s : default_;
+  if (lookup_) {
+    SurfaceEmissivity s = default_;
+    return lookup_(point_in_world, s) ? s : default_;
   }
   const float px = point_in_world.x(), py = point_in_world.y(), pz = point_in_world.z();
   for (size_t i = 0; i < bounds_.size(); ++i) {

@@ -1,9 +1,8 @@
 #pragma once
 
 #include <filesystem>
-#include <cstdint>
+#include <functional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -97,15 +96,11 @@ class EmissivityMap {
                              const std::filesystem::path& path_for_errors,
                              const core::ThermalSettings& rig_thermal);
 
-  // Emissivity painted per point (a truth mesh's vertices, a material map exported from a
-  // point-cloud editor): At() returns the nearest point's emissivity and law (region = its
-  // index) when one lies within max_distance_m, else the rig's default. reflected_c is the
-  // rig's. Asserts equal sizes, max_distance_m > 0 and emissivities in
-  // [ThermalSettings::kMinEmissivity, 1].
-  static EmissivityMap FromPoints(const core::ThermalSettings& rig_thermal,
-                                  std::vector<Eigen::Vector3f> points_in_world,
-                                  std::vector<double> emissivity, std::vector<core::EmissivityLaw> law,
-                                  double max_distance_m);
+  // Emissivity from a lookup the caller provides (a material map, a synthetic scan's truth
+  // mesh): At() returns what lookup fills (its reflected_c and region as given) when it
+  // returns true, else the rig's default. lookup is called from several threads at once.
+  using Lookup = std::function<bool(const Eigen::Vector3f& point_in_world, SurfaceEmissivity& out)>;
+  static EmissivityMap FromLookup(const core::ThermalSettings& rig_thermal, Lookup lookup);
 
   // The emissivity at a world point (metres): the region containing it (closed; a point on
   // the boundary two touching regions share gets the one listed first), else the default.
@@ -135,16 +130,9 @@ class EmissivityMap {
   };
   void AddRegion(EmissivityRegion region);
 
-  // FromPoints: the nearest painted point within point_cell_m_ (a hash grid of that cell).
-  bool NearestPoint(const Eigen::Vector3f& point_in_world, SurfaceEmissivity& out) const;
-
   SurfaceEmissivity default_;
   std::vector<EmissivityRegion> regions_;
-  float point_cell_m_ = 0;  // > 0 for a FromPoints map
-  std::vector<Eigen::Vector3f> points_;
-  std::vector<float> point_emissivity_;
-  std::vector<core::EmissivityLaw> point_law_;
-  std::unordered_map<uint64_t, std::vector<int32_t>> point_cells_;
+  Lookup lookup_;  // FromLookup
   std::vector<Bound> bounds_;
   std::vector<Exact> exact_;
 };

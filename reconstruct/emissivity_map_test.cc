@@ -362,28 +362,27 @@ TEST(EmissivityMap, LookupTiming) {
   EXPECT_NEAR(static_cast<double>(hits) / n, 0.255, 0.01);
 }
 
-TEST(EmissivityMap, FromPointsTakesTheNearestPaintedPointWithinReach) {
+TEST(EmissivityMap, FromLookupAnswersWhereTheLookupDoesElseTheRigDefault) {
   core::ThermalSettings rig;
   rig.emissivity = 0.95;
   rig.reflected_c = 19.0;
-  const EmissivityMap map = EmissivityMap::FromPoints(
-      rig, {{0, 0, 1}, {0.02f, 0, 1}, {0.5f, 0.5f, 1}}, {0.3, 0.9, 0.6},
-      {core::EmissivityLaw::kMetal, core::EmissivityLaw::kDielectric, core::EmissivityLaw::kDielectric}, 0.05);
-  SurfaceEmissivity s = map.At({0.004f, 0.001f, 1.0f});
-  EXPECT_EQ(s.emissivity, 0.3f);
+  // A metal boss of radius 5 cm at the origin, nothing else known.
+  const EmissivityMap map = EmissivityMap::FromLookup(rig, [](const Eigen::Vector3f& p, SurfaceEmissivity& out) {
+    if (p.norm() > 0.05f) return false;
+    out.emissivity = 0.3;
+    out.law = core::EmissivityLaw::kMetal;
+    out.region = 7;
+    return true;
+  });
+  SurfaceEmissivity s = map.At({0.01f, 0.0f, 0.0f});
+  EXPECT_EQ(s.emissivity, 0.3);
   EXPECT_EQ(s.law, core::EmissivityLaw::kMetal);
-  EXPECT_EQ(s.region, 0);
-  EXPECT_EQ(s.reflected_c, 19.0);
-  s = map.At({0.016f, 0.0f, 1.0f});  // nearer the second point
-  EXPECT_EQ(s.region, 1);
-  EXPECT_EQ(s.emissivity, 0.9f);
-  // Across a cell border (cells are 5 cm: 0.49 and 0.51 lie in different ones).
-  EXPECT_EQ(map.At({0.51f, 0.49f, 1.0f}).region, 2);
-  // Beyond reach: the rig's default.
-  s = map.At({0.2f, 0.2f, 1.0f});
+  EXPECT_EQ(s.region, 7);
+  EXPECT_EQ(s.reflected_c, 19.0);  // left as the default gave it
+  s = map.At({0.2f, 0.0f, 0.0f});
   EXPECT_EQ(s.region, -1);
   EXPECT_EQ(s.emissivity, 0.95);
-  EXPECT_EQ(map.At({NAN, 0.0f, 1.0f}).region, -1);
+  EXPECT_EQ(s.law, core::EmissivityLaw::kDielectric);
 }
 
 }  // namespace

@@ -189,6 +189,19 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
     errors.push_back(error);
     if (comparison.uniform[i]) uniform_errors.push_back(error);
   }
+  std::vector<double> low_errors;
+  if (comparison.truth_emissivity.size() == estimate_c.size()) {
+    for (size_t i = 0; i < estimate_c.size(); ++i) {
+      if (std::isfinite(estimate_c[i]) && std::isfinite(comparison.truth_c[i]) &&
+          comparison.truth_emissivity[i] < kLowEmissivity) {
+        low_errors.push_back(estimate_c[i] - comparison.truth_c[i]);
+      }
+    }
+  }
+  const ErrorSummary low = Summarize(low_errors);
+  stats.compared_low_emissivity = static_cast<int>(low_errors.size());
+  stats.rmse_low_emissivity_k = low.rmse;
+  stats.mean_low_emissivity_k = low.mean;
   stats.compared = static_cast<int>(errors.size());
   stats.compared_uniform = static_cast<int>(uniform_errors.size());
   const ErrorSummary all = Summarize(errors), uniform = Summarize(uniform_errors);
@@ -199,6 +212,34 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
   stats.rmse_uniform_k = uniform.rmse;
   stats.p95_abs_uniform_k = uniform.p95_abs;
   stats.mean_uniform_k = uniform.mean;
+
+  // Least squares truth ≈ gain · estimate + offset over the uniform subset (centred sums).
+  double n = 0, mean_e = 0, mean_t = 0;
+  for (size_t i = 0; i < estimate_c.size(); ++i) {
+    if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
+    ++n;
+    mean_e += (estimate_c[i] - mean_e) / n;
+    mean_t += (comparison.truth_c[i] - mean_t) / n;
+  }
+  double see = 0, set = 0;
+  for (size_t i = 0; i < estimate_c.size(); ++i) {
+    if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
+    see += (estimate_c[i] - mean_e) * (estimate_c[i] - mean_e);
+    set += (estimate_c[i] - mean_e) * (comparison.truth_c[i] - mean_t);
+  }
+  if (n >= 2 && see > 0) {
+    stats.affine_gain = set / see;
+    stats.affine_offset_k = mean_t - stats.affine_gain * mean_e;
+    std::vector<double> residuals;
+    residuals.reserve(static_cast<size_t>(n));
+    for (size_t i = 0; i < estimate_c.size(); ++i) {
+      if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
+      residuals.push_back(stats.affine_gain * estimate_c[i] + stats.affine_offset_k - comparison.truth_c[i]);
+    }
+    const ErrorSummary affine = Summarize(residuals);
+    stats.rmse_affine_k = affine.rmse;
+    stats.p95_abs_affine_k = affine.p95_abs;
+  }
   return stats;
 }
 
@@ -214,6 +255,8 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
   TemperatureComparison out;
   out.truth_c.assign(n, TemperatureErrorStats::kNaN);
   out.uniform.assign(n, 0);
+  out.truth_emissivity.assign(n, TemperatureErrorStats::kNaN);
+  const bool has_emissivity = truth.emissivity.size() == truth.vertices.size();
 
   std::optional<PointGrid> boundary;
   if (options.edge_exclusion_m > 0) {
@@ -238,6 +281,12 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
       const Eigen::Vector3d t(truth.temperature_c[face[0]], truth.temperature_c[face[1]],
                               truth.temperature_c[face[2]]);
       out.truth_c[i] = closest->on_face.weights.dot(t);
+      if (has_emissivity) {
+        int corner = 0;
+        closest->on_face.weights.maxCoeff(&corner);
+        out.truth_emissivity[i] = truth.emissivity[face[corner]];
+        if (out.truth_emissivity[i] < kLowEmissivity) continue;  // not uniform: scored apart
+      }
 
       // The range over the ball, stopping as soon as it exceeds uniform_range_k.
       const Eigen::Vector3d& q = closest->on_face.point;

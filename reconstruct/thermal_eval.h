@@ -75,7 +75,20 @@ struct TemperatureErrorStats {
   double rmse_k = kNaN, p95_abs_k = kNaN, mean_k = kNaN, max_abs_k = kNaN;
   // Over compared_uniform, K; NaN when none.
   double rmse_uniform_k = kNaN, p95_abs_uniform_k = kNaN, mean_uniform_k = kNaN;
+  // Over compared_uniform after the least-squares map truth ≈ gain · estimate + offset: what
+  // remains once the camera's radiometric calibration error (a gain and an offset per
+  // session, ±1–2 K for uncooled cameras, which no fusion rule can see and the calibration
+  // bench measures) is taken out; NaN with fewer than 2 vertices or no spread.
+  double affine_gain = kNaN, affine_offset_k = kNaN;
+  double rmse_affine_k = kNaN, p95_abs_affine_k = kNaN;
+  // Over compared vertices on low-emissivity surfaces (truth emissivity < kLowEmissivity:
+  // bare metal, where most of the reading is reflection), K; NaN when none.
+  int compared_low_emissivity = 0;
+  double rmse_low_emissivity_k = kNaN, mean_low_emissivity_k = kNaN;
 };
+
+// Surfaces below this normal emissivity are scored apart (TemperatureErrorStats).
+inline constexpr double kLowEmissivity = 0.5;
 
 // truth_c and uniform depend on the geometry only, not on an estimate: TemperatureErrors
 // applies them to any estimate over the same model vertices.
@@ -84,9 +97,15 @@ struct TemperatureComparison {
   // vertex is not compared whatever its estimate (beyond max_distance_m or within
   // edge_exclusion_m of a model boundary).
   std::vector<double> truth_c;
-  // Per model vertex, 1 where truth_c is finite and the true temperature within
-  // uniform_radius_m of the closest truth point spans at most uniform_range_k.
+  // Per model vertex, 1 where truth_c is finite, the true temperature within
+  // uniform_radius_m of the closest truth point spans at most uniform_range_k, and (when the
+  // truth has emissivity) the surface is not a low-emissivity one (below
+  // kLowEmissivity: those are reported apart).
   std::vector<uint8_t> uniform;
+  // Per model vertex, the truth's normal emissivity at the closest truth point (the nearest
+  // vertex of its triangle: no blending across a patch border); NaN where truth_c is or the
+  // truth has none.
+  std::vector<double> truth_emissivity;
   TemperatureErrorStats stats;  // of the estimate given to CompareTemperatures
 };
 

@@ -107,6 +107,25 @@ TEST(TemperatureErrors, StatsAndInterpolatedPercentile) {
   EXPECT_TRUE(std::isnan(none.rmse_k) && std::isnan(none.p95_abs_k) && std::isnan(none.mean_uniform_k));
 }
 
+TEST(TemperatureErrors, AffineFitTakesOutACameraGainAndOffset) {
+  // A camera reading 2 % high in slope and 1.5 K high: estimate = 1.02 · truth + 1.5, plus a
+  // ±0.1 K alternating error the fit must leave.
+  TemperatureComparison c;
+  std::vector<double> estimate;
+  for (int i = 0; i < 100; ++i) {
+    c.truth_c.push_back(20 + 0.3 * i);
+    c.uniform.push_back(i % 10 != 3);  // some outside the uniform subset
+    estimate.push_back(1.02 * c.truth_c.back() + 1.5 + ((i % 2) ? 0.1 : -0.1) + (i % 10 == 3 ? 50 : 0));
+  }
+  const TemperatureErrorStats s = TemperatureErrors(c, estimate);
+  EXPECT_NEAR(s.mean_uniform_k, 0.02 * (20 + 0.3 * 49.5) + 1.5, 0.05);
+  EXPECT_NEAR(s.affine_gain, 1 / 1.02, 2e-3);
+  EXPECT_NEAR(s.rmse_affine_k, 0.1 / 1.02, 5e-3);
+  // The excluded vertices are all odd (+0.1): the fit sees a few more −0.1 than +0.1, which
+  // shifts its offset by ~0.01 K.
+  EXPECT_LT(s.p95_abs_affine_k, 0.12);
+}
+
 TEST(CompareTemperatures, LinearFieldOffsetPlaneExactStats) {
   // Truth: 5 cm triangles (linear interpolation reproduces a linear field exactly). Model:
   // 21 × 21 vertices 1 mm above it; estimate = truth − 2 K on every fifth vertex, + 0.5 K

@@ -279,8 +279,6 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
   std::vector<int32_t> touched;
   uint64_t cached_key = ~uint64_t{0};
   int32_t cached_block = -1;
-  std::array<Eigen::Vector3i, 8> voxel;
-  std::array<float, 8> weight;
   for (const Ray& ray : fused) {
     // A footprint wider than a voxel is covered by a grid of splats at most a voxel apart,
     // so that a far or grazing view leaves no voxel between its rays unobserved.
@@ -292,20 +290,19 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
         const Eigen::Vector3f point = ray.point_in_world +
                                       ((a + 0.5f) / static_cast<float>(nu) - 0.5f) * ray.footprint_u +
                                       ((b + 0.5f) / static_cast<float>(nv) - 0.5f) * ray.footprint_v;
-        Corners(point, voxel, weight);
-        for (int c = 0; c < 8; ++c) {
-          if (weight[c] <= 0) continue;
-          const int32_t r = RegionOf(voxel[c].x(), voxel[c].y(), voxel[c].z(), true, cached_key, cached_block);
-          if (r < 0) continue;
-          FrameSum& s = frame_sums[r];
-          if (s.weight == 0) touched.push_back(r);
-          const float w = weight[c] * share;
-          const float wc = w * ray.confidence;
-          s.weight += w;
-          s.weight_confidence += wc;
-          s.surface += wc * ray.surface_c;
-          s.apparent += wc * ray.apparent_c;
-        }
+        // The nearest voxel takes it (a trilinear splat would touch 8, twice the surface's
+        // two layers of voxels, for no gain: Sample() interpolates between observed voxels).
+        const Eigen::Vector3f g = point / voxel_m;
+        const int32_t r = RegionOf(FloorToInt(g.x() + 0.5f), FloorToInt(g.y() + 0.5f), FloorToInt(g.z() + 0.5f),
+                                   true, cached_key, cached_block);
+        if (r < 0) continue;
+        FrameSum& s = frame_sums[r];
+        if (s.weight == 0) touched.push_back(r);
+        const float wc = share * ray.confidence;
+        s.weight += share;
+        s.weight_confidence += wc;
+        s.surface += wc * ray.surface_c;
+        s.apparent += wc * ray.apparent_c;
       }
     }
   }

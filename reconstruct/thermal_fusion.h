@@ -4,9 +4,11 @@
 // ray is cast through the thermal lens model into the fused TSDF; the surface it meets gets
 // an observation — apparent temperature and, corrected for emissivity (at the viewing angle)
 // and reflected temperature, surface temperature — with the ray's confidence
-// C_R = Π c_i^p_i (thermal_confidence.h). Observations are splatted with trilinear weights
-// onto the 8 voxels around the hit (a "region" is a voxel: 5 mm at the default voxel size)
-// and merged per frame; each voxel then keeps, side by side, the estimates of every update
+// C_R = Π c_i^p_i (thermal_confidence.h). Each observation goes to the voxel nearest the hit
+// (a "region" is a voxel: 5 mm at the default voxel size) — or, when the pixel's footprint on
+// the surface is wider than a voxel (far or grazing views), to the voxels nearest a grid of
+// points covering the footprint, so that no voxel between rays goes unobserved — and the
+// rays of one frame are merged per region (one view, one observation); each voxel then keeps, side by side, the estimates of every update
 // rule (thermal_update.h) so that they can be compared on one run: the latest observation,
 // the plain mean, voxblox's capped running mean, the paper's online rule, and (after the
 // scan, from every observation kept) the robust offline mean with the spread across views.

@@ -140,17 +140,21 @@ TEST(ThermalFusionTest, RecoversAnalyticSurfaceTemperatureThroughDistortedLens) 
   for (ThermalMethod method : {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
                                ThermalMethod::kOnline, ThermalMethod::kOffline}) {
     const PointTemperatures t = fusion.Sample(points, method);
-    double max_error = 0;
+    double max_error = 0, sum_error = 0;
     for (size_t i = 0; i < points.size(); ++i) {
       ASSERT_TRUE(std::isfinite(t.surface_c[i])) << ThermalMethodName(method) << " point " << i;
-      max_error = std::max(max_error, std::abs(static_cast<double>(t.surface_c[i]) - TrueSurfaceC(points[i].cast<double>())));
+      const double error = static_cast<double>(t.surface_c[i]) - TrueSurfaceC(points[i].cast<double>());
+      max_error = std::max(max_error, std::abs(error));
+      sum_error += error;
       EXPECT_GT(t.views[i], 0);
     }
-    // A linear field splatted and read back trilinearly is exact up to the splat's spread
-    // along the plane within one voxel (1 cm · 5.8 K/m gradient · the asymmetry of a
-    // voxel's footprint, ≲ 0.03 K) and float rounding; a misplaced ray (a wrong lens model or
-    // pose) would be off by the gradient times its error (1 px ≈ 1.3 cm here: 0.08 K).
-    EXPECT_LT(max_error, 0.03) << ThermalMethodName(method);
+    // A voxel holds the mean of the rays nearest it, whose mean position is off its centre by
+    // up to half a voxel (0.5 cm · 5.8 K/m = 0.03 K), and a point reads its cell's voxels
+    // trilinearly from those, so up to ~0.06 K at a point, unbiased on average; a misplaced
+    // ray (a wrong lens model or pose) is off by the gradient times its error everywhere
+    // alike (1 px ≈ 1.3 cm here: 0.08 K, a bias).
+    EXPECT_LT(max_error, 0.06) << ThermalMethodName(method);
+    EXPECT_LT(std::abs(sum_error / points.size()), 0.01) << ThermalMethodName(method);
   }
 }
 

@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Benchmark: temperature on the model, every fusion method side by side on the same run (not
+# part of the test suite). The command behind the README's thermal table:
+#
+#   cmake --build build --target heatwave && bench/thermal_fusion.sh
+#
+# For each scan it renders (once; cached under DATA_DIR, default BUILD_DIR/bench-data) a
+# full-size fixture scan with thermal (`heatwave synth --size full --duration 4
+# --reflected-error 0`: 640x480 depth + colour, 320x240 thermal with the standard camera's
+# NETD, vignetting, fixed-pattern noise and ±1-2 K / 2 % calibration error; ~25 min of both
+# cores each), then runs on it, one after the other:
+#   no-thermal   heatwave reconstruct --no-thermal: the reconstruction alone (frames/s)
+#   rig          heatwave reconstruct: thermal fusion with rig.yaml's one emissivity (0.95)
+#   truth        ... with each surface's true emissivity (--emissivity-from-truth)
+#   no-conf      ... truth emissivity, every confidence power 0 (C_R = 1: plain rays)
+# All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
+# reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
+# vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
+# bias over vertices within 1 cm of the true surface away from model boundaries, on the
+# uniform subset (away from hot-spot borders and low-emissivity patches), after removing the
+# best camera gain and offset, and on low-emissivity patches. The table lists them per scan,
+# configuration and method, with frames/s of the whole pipeline beside the reconstruction
+# alone; OUT_DIR/summary.tsv holds the same rows.
+#
+# Usage: bench/thermal_fusion.sh [--build DIR] [--data DIR] [--out DIR] [--scans "A B"]
+#   scans: eqT4 (equipment, smooth), bdT4 (building, smooth), eqJ4 (equipment, jerky)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+build=build
+data=""
+out=""
+scans="eqT4 bdT4 eqJ4"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --build) build=$2; shift 2 ;;
+    --data) data=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --scans) scans=$2; shift 2 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    *) echo "unknown option: $1" >&2; exit 2 ;;
+  esac
+done
+data=${data:-$build/bench-data}
+out=${out:-$build/bench-results/thermal-fusion}
+heatwave=$build/cli/heatwave
+[[ -x $heatwave ]] || { echo "build heatwave first: cmake --build $build --target heatwave" >&2; exit 2; }
+mkdir -p "$data" "$out"
+
+synth_args() {
+  case "$1" in
+    eqT4) echo "--scene equipment" ;;
+    bdT4) echo "--scene building" ;;
+    eqJ4) echo "--scene equipment --trajectory jerky" ;;
+    *) echo "unknown scan $1 (eqT4 bdT4 eqJ4)" >&2; exit 2 ;;
+  esac
+}
+
+summary=$out/summary.tsv
+printf "scan\tconfig\tmethod\tfps\tthermal_ms\trmse\tp95\tbias\trmse_uniform\tp95_uniform\trmse_affine\tp95_affine\trmse_low_e\tbias_low_e\tcompared\n" > "$summary"
+for scan in $scans; do
+  if [[ ! -f $data/$scan/thermal.txt ]]; then
+    echo "== rendering $scan (minutes)" >&2
+    # shellcheck disable=SC2046
+    "$heatwave" synth $(synth_args "$scan") --size full --duration 4 --seed 1 --reflected-error 0 \
+      --out "$data/$scan" --overwrite -q
+  fi
+  for config in no-thermal rig truth no-conf; do
+    args=(--start-at-groundtruth --overwrite -q)
+    case $config in
+      no-thermal) args+=(--no-thermal) ;;
+      truth) args+=(--emissivity-from-truth) ;;
+      no-conf) args+=(--emissivity-from-truth --confidence-powers 0,0,0,0,0) ;;
+    esac
+    echo "== $scan $config" >&2
+    "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"
+    python3 - "$out/$scan-$config/reconstruct.json" "$scan" "$config" >> "$summary" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+fps = d["timings"]["frames_per_s"]
+frames = max(1, len(d["frames"]))
+t = d.get("thermal")
+if t is None:
+    print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 10)
+    sys.exit()
+# Frames/s of the whole pipeline: depth processing plus thermal fusion per depth frame.
+total_s = d["timings"]["process_s"] + t["timings"]["fusion_s"] + t["timings"]["offline_s"]
+fps_all = frames / total_s
+ms = t["timings"]["mean_raycast_ms"] + t["timings"]["mean_fuse_ms"]
+for m in t.get("truth_evaluation", []):
+    f = lambda k: "nan" if m[k] is None else f"{m[k]:.3f}"
+    print("\t".join([sys.argv[2], sys.argv[3], m["method"], f"{fps_all:.2f}", f"{ms:.0f}",
+                     f("rmse_k"), f("p95_abs_k"), f("mean_k"), f("rmse_uniform_k"), f("p95_abs_uniform_k"),
+                     f("rmse_affine_k"), f("p95_abs_affine_k"), f("rmse_low_emissivity_k"),
+                     f("mean_low_emissivity_k"), str(m["compared"])]))
+EOF
+  done
+done
+echo
+column -t -s $'\t' "$summary"
+echo "(K; fps: depth frames per second of processing, thermal fusion included; thermal_ms per thermal frame)"

@@ -1,0 +1,155 @@
+// End-to-end tests of `heatwave reconstruct` with a thermal stream: temperature on every model
+// vertex, the report, and what bad thermal frames, emissivity files and options do.
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/atomic_file.h"
+#include "core/ply.h"
+#include "core/scan.h"
+#include "reconstruct/reconstruct_test_support.h"
+#include "tests/support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::test::CountLines;
+using hw::test::FreshPath;
+using hw::test::TestFolder;
+using Result = hw::test::CommandResult;
+
+Result Heatwave(const std::string& args) {
+  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+}
+
+const std::string kOptions = " --voxel-size 0.01 -q";
+
+// The smooth test scan with its thermal stream (80×60, the standard camera's errors).
+fs::path ThermalScan() {
+  hw::fixtures::SynthScanOptions o = hw::reconstruct::test::TestScanOptions();
+  o.write_thermal = true;
+  return hw::reconstruct::test::CachedScan("smooth-thermal", o);
+}
+
+fs::path CopyOfThermalScan(const std::string& name) {
+  const fs::path copy = TestFolder(name);
+  fs::copy(ThermalScan(), copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  return copy;
+}
+
+std::string Read(const fs::path& path) { return hw::core::ReadFile(path, hw::core::kMaxMeshFileBytes); }
+
+TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + ThermalScan().string() + " --out " + out.string() +
+                            " --voxel-size 0.01 --start-at-groundtruth --emissivity-from-truth");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Thermal"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("offline"), std::string::npos) << r.output;
+  const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
+  for (const char* name : {"temperature_c", "temperature_apparent_c", "temperature_confidence",
+                           "temperature_views", "temperature_std_c"}) {
+    ASSERT_NE(model.Find(name), nullptr) << name;
+  }
+  const auto& t = model.Get("temperature_c").values;
+  const auto& apparent = model.Get("temperature_apparent_c").values;
+  const auto& views = model.Get("temperature_views").values;
+  const auto& confidence = model.Get("temperature_confidence").values;
+  int observed = 0, unobserved = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    if (views[i] > 0) {
+      ++observed;
+      // A plant room: nothing below freezing or above 150 °C.
+      EXPECT_TRUE(t[i] > 0 && t[i] < 150) << i << " " << t[i];
+      EXPECT_TRUE(std::isfinite(apparent[i]));
+      EXPECT_GT(confidence[i], 0);
+      EXPECT_LE(confidence[i], 1);
+    } else {
+      ++unobserved;
+      EXPECT_TRUE(std::isnan(t[i])) << "unobserved vertex " << i << " has " << t[i];
+      EXPECT_TRUE(std::isnan(apparent[i]));
+      EXPECT_EQ(confidence[i], 0);
+    }
+  }
+  // The thermal camera sees less than the depth camera (narrower view, 40 ms behind), so
+  // most of the model but not all of it has a temperature.
+  EXPECT_GT(observed, static_cast<int>(t.size()) / 2);
+  const std::string json = Read(out / "reconstruct.json");
+  for (const char* key : {"\"thermal\"", "\"recency_bias\"", "\"fraction_fused\"", "\"truth_evaluation\"",
+                          "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\""}) {
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  }
+}
+
+TEST(ReconstructThermalCli, ScanWithoutThermalFramesWarnsAndWritesNoTemperature) {
+  // A rig with a thermal camera whose stream was not recorded.
+  const fs::path scan = CopyOfThermalScan("no-thermal-frames");
+  fs::remove(scan / "thermal.txt");
+  fs::remove_all(scan / "thermal");
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + " --voxel-size 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(Read(out / "reconstruct.json").find("the scan has no thermal frames: the model is written without temperature"),
+            std::string::npos);
+  const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
+  EXPECT_EQ(model.Find("temperature_c"), nullptr);
+}
+
+TEST(ReconstructThermalCli, WrongSizeThermalFrameIsOneLineNamingTheFile) {
+  const fs::path scan = CopyOfThermalScan("thermal-wrong-size");
+  const hw::core::Scan opened = hw::core::Scan::Open(scan);
+  const fs::path frame = opened.FramePath(hw::core::Stream::kThermal, 3);
+  ASSERT_TRUE(cv::imwrite(frame.string(), cv::Mat::zeros(7, 9, CV_16UC1)));
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + kOptions);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find(frame.filename().string()), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(ReconstructThermalCli, BadEmissivityFileIsOneLineNamingFileAndLine) {
+  const fs::path file = TestFolder() / "emissivity.yaml";
+  hw::core::WriteFileAtomically(file,
+                                "version: 1\n"
+                                "regions:\n"
+                                "  - name: boss\n"
+                                "    emissivity: 1.2\n"
+                                "    sphere: { centre_m: [0, 0, 1], radius_m: 0.05 }\n");
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + ThermalScan().string() + " --out " + out.string() + kOptions +
+                            " --emissivity " + file.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("emissivity.yaml"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("line 4"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // A valid one is used and named in the report.
+  hw::core::WriteFileAtomically(file,
+                                "version: 1\n"
+                                "regions:\n"
+                                "  - name: boss\n"
+                                "    emissivity: 0.3\n"
+                                "    law: metal\n"
+                                "    sphere: { centre_m: [0, 0, 1], radius_m: 0.05 }\n");
+  const Result ok = Heatwave("reconstruct " + ThermalScan().string() + " --out " + out.string() + kOptions +
+                             " --emissivity " + file.string() + " --max-frames 10");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(Read(out / "reconstruct.json").find("emissivity.yaml: 1 regions"), std::string::npos);
+}
+
+TEST(ReconstructThermalCli, BadThermalOptionsAreExit2) {
+  const std::string base = "reconstruct " + ThermalScan().string() + " --out " + FreshPath("out").string() + kOptions;
+  for (const char* bad : {" --thermal-method median", " --recency-bias 1.5", " --confidence-powers 1,1,1",
+                          " --confidence-powers 1,1,-1,1,1", " --emissivity-from-truth",
+                          " --min-ray-confidence 1"}) {
+    const Result r = Heatwave(base + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
+  }
+}
+
+}  // namespace
