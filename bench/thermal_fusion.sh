@@ -11,8 +11,9 @@
 # cores each), then runs on it, one after the other:
 #   no-thermal   heatwave reconstruct --no-thermal: the reconstruction alone (frames/s)
 #   rig          heatwave reconstruct: thermal fusion with rig.yaml's one emissivity (0.95)
-#   truth        ... with each surface's true emissivity (--emissivity-from-truth)
-#   no-conf      ... truth emissivity, every confidence power 0 (C_R = 1: plain rays)
+#   truth        ... with each surface's true emissivity (--emissivity-from-truth) and the
+#                camera's true vignetting (--thermal-vignetting 0.05): a characterised camera
+#   no-conf      ... as truth, every confidence power 0 (C_R = 1: plain rays)
 # All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
 # reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
@@ -43,9 +44,11 @@ while [[ $# -gt 0 ]]; do
 done
 data=${data:-$build/bench-data}
 out=${out:-$build/bench-results/thermal-fusion}
-heatwave=$build/cli/heatwave
-[[ -x $heatwave ]] || { echo "build heatwave first: cmake --build $build --target heatwave" >&2; exit 2; }
+[[ -x $build/cli/heatwave ]] || { echo "build heatwave first: cmake --build $build --target heatwave" >&2; exit 2; }
 mkdir -p "$data" "$out"
+# A copy, so that a rebuild during the (long) run does not pull the binary away.
+heatwave=$out/heatwave
+cp "$build/cli/heatwave" "$heatwave"
 
 synth_args() {
   case "$1" in
@@ -69,8 +72,8 @@ for scan in $scans; do
     args=(--start-at-groundtruth --overwrite -q)
     case $config in
       no-thermal) args+=(--no-thermal) ;;
-      truth) args+=(--emissivity-from-truth) ;;
-      no-conf) args+=(--emissivity-from-truth --confidence-powers 0,0,0,0,0) ;;
+      truth) args+=(--emissivity-from-truth --thermal-vignetting 0.05) ;;
+      no-conf) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --confidence-powers 0,0,0,0,0) ;;
     esac
     echo "== $scan $config" >&2
     "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"

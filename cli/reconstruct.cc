@@ -476,6 +476,10 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-ray-confidence", t.min_ray_confidence, "rays below this confidence are not fused")
       ->capture_default_str();
+  app.add_option("--thermal-vignetting", t.vignetting,
+                 "thermal radiance lost at the image corners after the camera's own calibration "
+                 "(pixels read L (1 - v r^2)), corrected before fusion; 0: none")
+      ->capture_default_str();
   app.add_option("--emissivity", o.emissivity_path,
                  "emissivity file: regions of other emissivity / reflected temperature (README)");
   app.add_flag("--emissivity-from-truth", o.emissivity_from_truth,

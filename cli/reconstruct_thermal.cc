@@ -176,6 +176,7 @@ std::string ThermalJson(const ReconstructCommandOptions& options, const reconstr
       .Number("recency_bias", o.recency_bias)
       .Number("capped_mean_max_weight", o.capped_mean_max_weight)
       .Number("min_ray_confidence", o.min_ray_confidence)
+      .Number("vignetting", o.vignetting)
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
       .Add("confidence", confidence.str())

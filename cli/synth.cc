@@ -243,6 +243,7 @@ struct SynthArguments {
   bool no_reflections = false;
   bool no_depth_artefacts = false;
   std::optional<double> reflected_error_k;
+  std::optional<double> thermal_vignetting;
   bool no_shadows = false;
   bool no_auto_exposure = false;
   bool overwrite = false;
@@ -287,6 +288,7 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   if (args.no_specular) o.colour.specular = false;
   if (args.no_reflections) o.thermal.reflections = fixtures::ReflectionOptions::Uniform();
   if (args.reflected_error_k) o.reflected_error_k = *args.reflected_error_k;
+  if (args.thermal_vignetting) o.thermal.vignetting = *args.thermal_vignetting;
   if (args.no_depth_artefacts) {
     o.depth.noise_correlation_px = 0;
     o.depth.distortion_radial_px = o.depth.distortion_pattern_px = 0;
@@ -452,6 +454,9 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--reflected-error", args.reflected_error_k,
                  "bound of the error of rig.yaml's reflected_c, K, in [0, 50] (default 3; 0: "
                  "the true value)");
+  app.add_option("--thermal-vignetting", args.thermal_vignetting,
+                 "thermal radiance lost at the image corners (1 - v r^2, which the camera's "
+                 "radiometric calibration does not remove), in [0, 1) (default 0.05)");
   app.add_flag("--no-depth-artefacts", args.no_depth_artefacts,
                "depth noise i.i.d. and unbiased, all materials matte (default: correlated "
                "noise, disparity distortion, edge fattening, glass/metal/dark dropouts)");
@@ -499,6 +504,7 @@ int RunSynth(int argc, char** argv) {
           {args.no_specular, "--no-specular"},
           {args.no_reflections, "--no-reflections"},
           {args.reflected_error_k.has_value(), "--reflected-error"},
+          {args.thermal_vignetting.has_value(), "--thermal-vignetting"},
           {args.no_depth_artefacts, "--no-depth-artefacts"},
           {args.no_shadows, "--no-shadows"},
           {args.no_auto_exposure, "--no-auto-exposure"}};

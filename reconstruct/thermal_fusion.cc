@@ -89,6 +89,7 @@ std::string ThermalFusionOptions::Check() const {
   if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
     return OptionFail("max_depth_m", max_depth_m, "finite and > min_depth_m");
   }
+  if (!(vignetting >= 0 && vignetting < 1)) return OptionFail("vignetting", vignetting, "in [0, 1)");
   if (num_threads < 0) return OptionFail("num_threads", num_threads, ">= 0");
   return "";
 }
@@ -111,6 +112,7 @@ struct ThermalFusion::Impl {
   core::BandRadiance band;
   CameraRays rays;
   std::vector<float> distortion_confidence;  // c2 per pixel (fixed for the camera)
+  std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
   float voxel_m = 0;
 
   // Regions: blocks of kBlockVoxels slots (region index or -1), keyed like the TSDF's.
@@ -236,7 +238,12 @@ std::vector<Ray> ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::M
         const SurfaceEmissivity e = emissivity.At(map.points[i]);
         const double emissivity_at_angle =
             core::DirectionalEmissivity(e.law, e.emissivity, std::clamp(cos_angle, 0.0, 1.0));
-        const double apparent = row[x];
+        double apparent = row[x];
+        if (!vignetting_gain.empty()) {
+          // Undo the radiance the optics lost at this pixel.
+          apparent = core::KelvinToCelsius(
+              band.Temperature(band.Radiance(core::CelsiusToKelvin(apparent)) / static_cast<double>(vignetting_gain[i])));
+        }
         const double surface = emissivity_at_angle > 0
                                    ? core::SurfaceFromApparent(band, apparent, emissivity_at_angle, e.reflected_c)
                                    : std::numeric_limits<double>::quiet_NaN();
@@ -343,6 +350,30 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
   record.regions_updated = static_cast<int>(touched.size());
 }
 
+namespace {
+
+// 1 − v·r² per pixel (ThermalFusionOptions::vignetting).
+std::vector<float> VignettingGain(const core::CameraModel& camera, double vignetting) {
+  std::vector<float> gain;
+  if (vignetting == 0) return gain;
+  double r_max2 = 0;
+  for (double x : {-0.5, camera.width - 0.5}) {
+    for (double y : {-0.5, camera.height - 0.5}) {
+      r_max2 = std::max(r_max2, (x - camera.cx) * (x - camera.cx) + (y - camera.cy) * (y - camera.cy));
+    }
+  }
+  gain.resize(size_t(camera.width) * camera.height);
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double r2 = ((x - camera.cx) * (x - camera.cx) + (y - camera.cy) * (y - camera.cy)) / r_max2;
+      gain[size_t(y) * camera.width + x] = static_cast<float>(1 - vignetting * r2);
+    }
+  }
+  return gain;
+}
+
+}  // namespace
+
 ThermalFusion::ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& options, EmissivityMap emissivity,
                              std::vector<double> ffc_timestamps_s) {
   assert(options.Check().empty());
@@ -350,6 +381,7 @@ ThermalFusion::ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& o
   impl_ = std::make_unique<Impl>(rig, options, std::move(emissivity), std::move(ffc_timestamps_s));
   Impl& m = *impl_;
   m.voxel_m = 0;  // set from the volume on the first frame
+  m.vignetting_gain = VignettingGain(*rig.thermal, options.vignetting);
   const int width = m.rays.width(), height = m.rays.height();
   m.distortion_confidence.resize(size_t(width) * height);
   for (int y = 0; y < height; ++y) {
@@ -362,6 +394,7 @@ ThermalFusion::ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& o
 }
 
 ThermalFusion::~ThermalFusion() = default;
+
 ThermalFusion::ThermalFusion(ThermalFusion&&) noexcept = default;
 ThermalFusion& ThermalFusion::operator=(ThermalFusion&&) noexcept = default;
 

@@ -51,6 +51,13 @@ struct ThermalFusionOptions {
   // A thermal frame is fused only between two fused depth poses at most this far apart
   // (depth clock): a tracking gap or the ends of the trajectory are not bridged. s, > 0.
   double max_pose_gap_s = 0.1;
+  // The thermal camera's vignetting left after its own radiometric calibration, as the
+  // radiance lost at the image corners: pixels read L·(1 − v·r²), r the pixel centre's
+  // distance from the principal point over the farthest corner's. Microbolometer optics lose
+  // 2–10 % at the corners (cos⁴ falloff, housing emission), which is 1–3 K at room
+  // temperature; uncorrected, it biases every view by where in the image it saw a surface.
+  // 0: none (the camera's calibration removed it); the calibration bench measures it. [0, 1).
+  double vignetting = 0;
   // The estimate written to temperature_c / temperature_apparent_c.
   ThermalMethod method = ThermalMethod::kOffline;
   // Keep every per-frame region observation for the offline estimate (16 bytes each, about
