@@ -120,7 +120,10 @@ struct ThermalFusion::Impl {
   std::vector<std::array<int32_t, kBlockVoxels>> blocks;
   std::vector<Region> regions;
   std::vector<FrameSum> frame_sums;  // per region, zero between frames
-  std::vector<Record> records;
+  // Per fused frame, its region observations: chunks, so that keeping them never copies
+  // what is already kept (one vector would move gigabytes each time it grows).
+  std::vector<std::vector<Record>> records;
+  size_t num_records = 0;
   std::vector<ThermalFrameRecord> frames;
   cv::Mat previous_image;
   bool finished = false;
@@ -314,6 +317,8 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
     }
   }
   const float max_weight = static_cast<float>(options.capped_mean_max_weight);
+  std::vector<Record> frame_records;
+  if (options.keep_observations) frame_records.reserve(touched.size());
   for (int32_t r : touched) {
     FrameSum& s = frame_sums[r];
     const float confidence = s.weight_confidence / s.weight;
@@ -345,8 +350,10 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
     region.online_apparent_c = static_cast<float>(
         q >= 1 ? static_cast<double>(apparent)
                : q * static_cast<double>(apparent) + (1 - q) * static_cast<double>(region.online_apparent_c));
-    if (options.keep_observations) records.push_back(Record{r, surface, apparent, confidence});
+    if (options.keep_observations) frame_records.push_back(Record{r, surface, apparent, confidence});
   }
+  num_records += frame_records.size();
+  if (!frame_records.empty()) records.push_back(std::move(frame_records));
   record.regions_updated = static_cast<int>(touched.size());
 }
 
@@ -502,19 +509,23 @@ void ThermalFusion::Finish() {
   Impl& m = *impl_;
   m.finished = true;
   m.offline_rejected = 0;
-  if (!m.options.keep_observations || m.records.empty()) return;
+  if (!m.options.keep_observations || m.num_records == 0) return;
   // Group the observations by region (counting sort), then estimate each region alone.
   const size_t n_regions = m.regions.size();
   std::vector<uint32_t> begin(n_regions + 1, 0);
-  for (const Record& r : m.records) ++begin[r.region + 1];
+  for (const std::vector<Record>& frame : m.records) {
+    for (const Record& r : frame) ++begin[r.region + 1];
+  }
   for (size_t i = 0; i < n_regions; ++i) begin[i + 1] += begin[i];
-  std::vector<Observation> surface(m.records.size()), apparent(m.records.size());
+  std::vector<Observation> surface(m.num_records), apparent(m.num_records);
   {
     std::vector<uint32_t> next(begin.begin(), begin.end() - 1);
-    for (const Record& r : m.records) {
-      const uint32_t k = next[r.region]++;
-      surface[k] = Observation{r.surface_c, r.confidence};
-      apparent[k] = Observation{r.apparent_c, r.confidence};
+    for (const std::vector<Record>& frame : m.records) {
+      for (const Record& r : frame) {
+        const uint32_t k = next[r.region]++;
+        surface[k] = Observation{r.surface_c, r.confidence};
+        apparent[k] = Observation{r.apparent_c, r.confidence};
+      }
     }
   }
   const int num_threads = internal::ResolveThreads(m.options.num_threads);
@@ -614,14 +625,14 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
 const std::vector<ThermalFrameRecord>& ThermalFusion::frames() const { return impl_->frames; }
 const ThermalFusionOptions& ThermalFusion::options() const { return impl_->options; }
 size_t ThermalFusion::NumRegions() const { return impl_->regions.size(); }
-size_t ThermalFusion::NumObservations() const { return impl_->records.size(); }
+size_t ThermalFusion::NumObservations() const { return impl_->num_records; }
 int64_t ThermalFusion::OfflineRejected() const { return impl_->offline_rejected; }
 
 size_t ThermalFusion::MemoryBytes() const {
   const Impl& m = *impl_;
   return m.regions.capacity() * sizeof(Region) + m.frame_sums.capacity() * sizeof(FrameSum) +
          m.blocks.capacity() * sizeof(m.blocks[0]) + m.block_index.size() * 32 +
-         m.records.capacity() * sizeof(Record);
+         m.num_records * sizeof(Record);
 }
 
 }  // namespace hw::reconstruct

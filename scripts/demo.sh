@@ -3,8 +3,8 @@
 # The demo scan is not stored in git: it is rendered deterministically (seed 1) from the
 # bundled synthetic "equipment" scene — a plant room with an open cabinet, pipes and a motor
 # with six planted hot spots — then validated, summarised and reconstructed into a coloured
-# 3D model. Until the rest of the audit pipeline (thermal mapping → analyze → report) exists,
-# these are the stages that run.
+# 3D model with a calibrated surface temperature on every vertex. Until the rest of the audit
+# pipeline (analyze → report) exists, these are the stages that run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
@@ -17,8 +17,8 @@ echo
 echo "== heatwave scan-info: validate it, decoding every frame"
 "$heatwave" scan-info "$out" --check-frames
 echo
-echo "== heatwave reconstruct: track the depth stream, fuse and mesh a coloured model"
+echo "== heatwave reconstruct: track the depth stream, fuse and mesh a coloured model, lay temperature on it"
 "$heatwave" reconstruct "$out" --out build/demo/reconstruction --overwrite
 echo
 echo "Demo scan: $out  (ground truth in $out/truth/: scene.ply, hotspots.yaml)"
-echo "Model:     build/demo/reconstruction/model.ply (MeshLab, CloudCompare), trajectory.txt, reconstruct.json"
+echo "Model:     build/demo/reconstruction/model.ply (MeshLab, CloudCompare; per-vertex temperature_c, temperature_confidence, ...), trajectory.txt, reconstruct.json"
