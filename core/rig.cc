@@ -238,17 +238,7 @@ std::string Rig::Check() const {
 Rig ParseRig(const std::string& yaml_text, const fs::path& path_for_errors) {
   const YamlReader reader(path_for_errors);
   const YAML::Node root = reader.LoadMapping(yaml_text);
-  // The version first: a newer file is reported as such, not by its first unknown key.
-  for (const auto& item : root) {
-    if (item.first.IsScalar() && item.first.Scalar() == "version") {
-      if (const int number = reader.Integer(item.second, "version"); number != 1) {
-        reader.Fail(
-            "version",
-            "unsupported version " + std::to_string(number) + " (this reader knows version 1)",
-            item.second);
-      }
-    }
-  }
+  reader.CheckVersion(root, 1);
   const Fields top = reader.Mapping(
       root, "", {"version", "depth_scale", "cameras", "extrinsics", "time_offset_s", "thermal"});
   top.Required("version");

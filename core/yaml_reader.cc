@@ -423,4 +423,17 @@ std::vector<double> YamlReader::NumberList(const YAML::Node& node, const std::st
   return values;
 }
 
+void YamlReader::CheckVersion(const YAML::Node& root, int supported) const {
+  for (const auto& item : root) {
+    if (item.first.IsScalar() && item.first.Scalar() == "version") {
+      if (const int number = Integer(item.second, "version"); number != supported) {
+        Fail("version",
+             "unsupported version " + std::to_string(number) + " (this reader knows version " +
+                 std::to_string(supported) + ")",
+             item.second);
+      }
+    }
+  }
+}
+
 }  // namespace hw::core

@@ -79,6 +79,10 @@ class YamlReader {
   // as a mapping.
   YAML::Node LoadMapping(const std::string& text) const;
 
+  // Fails when the mapping's `version` key is present and not `supported`, before any other
+  // key is looked at: a newer file is reported as such, not by its first unknown key.
+  void CheckVersion(const YAML::Node& root, int supported) const;
+
   // Maps a Check() message about the mapping `node`, e.g. "cameras.depth.fx: must be ...",
   // to "<prefix>.cameras.depth.fx: must be ... (line N)", N the line of that key's value
   // (or of the deepest enclosing node present in the file).
