@@ -13,7 +13,9 @@
 #   rig          heatwave reconstruct: thermal fusion with rig.yaml's one emissivity (0.95)
 #   truth        ... with each surface's true emissivity (--emissivity-from-truth) and the
 #                camera's true vignetting (--thermal-vignetting 0.05): a characterised camera
-#   no-conf      ... as truth, every confidence power 0 (C_R = 1: plain rays)
+#   gt-poses     as truth, fused along groundtruth.txt (--poses) instead of tracking: the
+#                fusion's own error, without the tracker's drift misplacing the thermal rays
+#   gt-no-conf   as gt-poses, every confidence power 0 (C_R = 1: plain rays)
 # All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
 # reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
@@ -24,6 +26,7 @@
 # alone; OUT_DIR/summary.tsv holds the same rows.
 #
 # Usage: bench/thermal_fusion.sh [--build DIR] [--data DIR] [--out DIR] [--scans "A B"]
+#                                [--configs "A B"]  (default: all five above)
 #   scans: eqT4 (equipment, smooth), bdT4 (building, smooth), eqJ4 (equipment, jerky)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,13 +35,15 @@ build=build
 data=""
 out=""
 scans="eqT4 bdT4 eqJ4"
+configs="no-thermal rig truth gt-poses gt-no-conf"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build=$2; shift 2 ;;
     --data) data=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     --scans) scans=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    --configs) configs=$2; shift 2 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "unknown option: $1" >&2; exit 2 ;;
   esac
 done
@@ -68,12 +73,14 @@ for scan in $scans; do
     "$heatwave" synth $(synth_args "$scan") --size full --duration 4 --seed 1 --reflected-error 0 \
       --out "$data/$scan" --overwrite -q
   fi
-  for config in no-thermal rig truth no-conf; do
+  for config in $configs; do
     args=(--start-at-groundtruth --overwrite -q)
     case $config in
       no-thermal) args+=(--no-thermal) ;;
       truth) args+=(--emissivity-from-truth --thermal-vignetting 0.05) ;;
-      no-conf) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --confidence-powers 0,0,0,0,0) ;;
+      gt-poses) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt") ;;
+      gt-no-conf) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt"
+                         --confidence-powers 0,0,0,0,0) ;;
     esac
     echo "== $scan $config" >&2
     "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"

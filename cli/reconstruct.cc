@@ -82,6 +82,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_condition_ratio", r.max_condition_ratio)
       .Int("num_threads", r.num_threads)
       .Bool("start_at_groundtruth", o.scan.start_at_groundtruth)
+      .String("poses", o.poses_path.string())
       .Int("first_frame", o.scan.first_frame)
       .Int("max_frames", o.scan.max_frames)
       .Add("tsdf", tsdf.str())
@@ -136,6 +137,7 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .String("rig", scan.rig_path().string())
       .Int("depth_frames", r.depth_frames);
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
+      .Int("posed", r.posed).Int("unposed", r.unposed)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured);
   const double processed = std::max<size_t>(1, reconstruction.frames().size());
@@ -229,6 +231,8 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   core::ScanOptions scan_options;
   scan_options.rig_path = options.rig_path;
   const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
+  ReconstructCommandOptions resolved = options;
+  if (!options.poses_path.empty()) resolved.scan.poses = core::ReadTumTrajectory(options.poses_path);
 
   // The output folder only once the input opened: a bad scan leaves nothing behind.
   std::error_code ec;
@@ -238,7 +242,7 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   const bool created_folder = !fs::exists(options.out_folder, ec);
   core::OutputFolder folder(options.out_folder, "heatwave reconstruct");
   try {
-    return ReconstructInto(options, scan, folder, start, quiet);
+    return ReconstructInto(resolved, scan, folder, start, quiet);
   } catch (...) {
     // A failed run leaves nothing of its own: outputs are written only at the very end
     // (atomically), so the folder holds at most the run marker — removed, with the folder
@@ -292,7 +296,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.load_seconds = run.load_seconds;
   r.process_seconds = run.process_seconds;
   r.missing = run.missing_frames;
-  r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames;
+  r.unposed = run.unposed_frames;
+  r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.coloured += f.coloured;
@@ -300,6 +305,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.recovered += f.status == FrameStatus::kRecovered;
     r.lost += f.status == FrameStatus::kLost;
     r.no_depth += f.status == FrameStatus::kNoDepth;
+    r.posed += f.status == FrameStatus::kPosed;
     r.prepare_ms += f.prepare_ms;
     r.track_ms += f.track_ms;
     r.integrate_ms += f.integrate_ms;
@@ -378,10 +384,10 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
 
 std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   std::string out;
-  out += core::StringPrintf("Frames     %d depth frames: %d fused (%d tracked, %d recovered), %d lost, "
-                            "%d without depth, %d missing; %d coloured\n",
-                            r.depth_frames, r.fused, r.tracked, r.recovered, r.lost, r.no_depth,
-                            r.missing, r.coloured);
+  out += core::StringPrintf("Frames     %d depth frames: %d fused (%d tracked, %d recovered, %d at given poses), "
+                            "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
+                            r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
+                            r.missing, r.unposed, r.coloured);
   const int processed = r.depth_frames - r.missing;
   out += core::StringPrintf("Speed      %.1f frames/s processing (%.1f ms/frame: prepare %.1f, track %.1f, "
                             "integrate %.1f, raycast %.1f); decoding %.1f s\n",
@@ -435,6 +441,9 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--out", o.out_folder, "output folder: trajectory.txt, model.ply, reconstruct.json")
       ->required();
   app.add_option("--rig", o.rig_path, "rig.yaml to use instead of the scan's (TUM sequences)");
+  app.add_option("--poses", o.poses_path,
+                 "fuse along this TUM trajectory (world_from_depth: motion capture, another SLAM, "
+                 "groundtruth.txt) instead of tracking");
   app.add_flag("--overwrite", o.overwrite, "replace the reconstruction files in a non-empty --out");
   app.add_option("--voxel-size", r.tsdf.voxel_size_m, "TSDF voxel side, m")->capture_default_str();
   std::optional<double> truncation_m;

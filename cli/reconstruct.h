@@ -19,6 +19,7 @@ struct ReconstructCommandOptions {
   std::filesystem::path scan_folder;
   std::filesystem::path out_folder;
   std::filesystem::path rig_path;  // empty: <scan>/rig.yaml
+  std::filesystem::path poses_path;  // TUM trajectory to fuse along instead of tracking
   bool overwrite = false;          // replace an earlier reconstruction's files in out_folder
   reconstruct::ReconstructionOptions reconstruction;
   reconstruct::ScanReconstructionOptions scan;
@@ -54,6 +55,7 @@ struct ReconstructCommandResult {
   std::filesystem::path out_folder;
   int depth_frames = 0;  // depth frames in the range used
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
+  int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   size_t vertices = 0, faces = 0;
   double area_m2 = 0;
   reconstruct::MeshStats mesh_stats;

@@ -89,6 +89,7 @@ std::string FrameStatusName(FrameStatus status) {
     case FrameStatus::kRecovered: return "recovered";
     case FrameStatus::kLost: return "lost";
     case FrameStatus::kNoDepth: return "no_depth";
+    case FrameStatus::kPosed: return "posed";
   }
   return "?";
 }
@@ -225,10 +226,15 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
 
   core::Rigid3d world_from_depth;
-  if (trajectory_.empty()) {
+  if (frame.world_from_depth) {
+    world_from_depth = *frame.world_from_depth;
+    record.status = FrameStatus::kPosed;
+  } else if (trajectory_.empty()) {
     world_from_depth = initial_pose_.value_or(core::Rigid3d::Identity());
     record.status = FrameStatus::kInitialised;
   } else {
+    // After posed frames the model view is stale: raycast it at the last pose first.
+    if (!model_) UpdateModel(trajectory_.poses().back().world_from_sensor, record);
     start = std::chrono::steady_clock::now();
     const bool was_lost = lost_;
     const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
@@ -246,7 +252,12 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
   Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
-  UpdateModel(world_from_depth, record);
+  // A posed frame needs no model view (the next posed one does not track against it).
+  if (frame.world_from_depth) {
+    model_.reset();
+  } else {
+    UpdateModel(world_from_depth, record);
+  }
   record.blocks = volume_.NumBlocks();
   frames_.push_back(record);
   return frames_.back();
@@ -473,9 +484,18 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
       continue;
     }
     auto load_start = std::chrono::steady_clock::now();
-    const FrameInput frame = LoadScanFrame(scan, i, use_rgb);
+    FrameInput frame = LoadScanFrame(scan, i, use_rgb);
     out.load_seconds += Ms(load_start) / 1000;
 
+    if (options.poses) {
+      frame.world_from_depth = options.poses->At(t, 0.1);
+      if (!frame.world_from_depth) {
+        ++out.unposed_frames;
+        out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: no given pose, skipped", i, t));
+        if (frame_done) frame_done(i - first + 1, last - first);
+        continue;
+      }
+    }
     if (options.start_at_groundtruth && reconstruction.trajectory().empty()) {
       const std::optional<core::Rigid3d> gt =
           scan.groundtruth() ? scan.groundtruth()->At(t) : std::nullopt;

@@ -83,6 +83,9 @@ struct FrameInput {
   cv::Mat depth_m;         // CV_32FC1 metres as the depth camera saw it (distorted), 0 = none
   cv::Mat rgb;             // empty, or CV_8UC3 RGB of the rig's rgb camera
   double rgb_timestamp_s = 0;  // rgb exposure time on the depth clock, s
+  // A known pose (motion capture, another SLAM system, ground truth): the frame is fused
+  // there and not tracked (status kPosed).
+  std::optional<core::Rigid3d> world_from_depth;
 };
 
 enum class FrameStatus {
@@ -91,6 +94,7 @@ enum class FrameStatus {
   kRecovered,    // first success after lost frames (relocalised against the model); fused
   kLost,         // ICP failed; not fused, no pose
   kNoDepth,      // too few valid depth pixels; not used, no pose
+  kPosed,        // fused at the pose it came with (FrameInput::world_from_depth), not tracked
 };
 std::string FrameStatusName(FrameStatus status);  // "initialised", "tracked", ...
 
@@ -188,6 +192,9 @@ struct ScanReconstructionOptions {
   bool start_at_groundtruth = false;
   int first_frame = 0;  // first depth frame to use, >= 0
   int max_frames = 0;   // frames to use from first_frame, 0 = all
+  // Fuse along these poses (world_from_depth, depth clock; interpolated, gaps over 0.1 s not
+  // bridged) instead of tracking: frames they do not cover are skipped with a warning.
+  std::optional<core::Trajectory> poses;
 
   std::string Check() const;
 };
@@ -195,6 +202,7 @@ struct ScanReconstructionOptions {
 struct ScanReconstruction {
   std::vector<int> depth_frame_index;  // per FrameRecord: the scan's depth frame index
   int missing_frames = 0;              // depth frames whose file is missing (skipped)
+  int unposed_frames = 0;              // with options.poses: frames they do not cover (skipped)
   // Thermal frames (with a ThermalFusion): given to it, missing files (skipped), and those
   // after the last depth frame used (never posed, not given).
   int thermal_frames = 0, thermal_missing_frames = 0, thermal_after_end = 0;

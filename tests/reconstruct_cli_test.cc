@@ -81,6 +81,31 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   EXPECT_EQ(eval.exit_code, 0) << eval.output;
 }
 
+TEST(ReconstructCli, GivenPosesAreFusedNotTracked) {
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() + kOptions +
+                            " --poses " + (SmoothScan() / "groundtruth.txt").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const hw::core::Trajectory trajectory = hw::core::ReadTumTrajectory(out / "trajectory.txt");
+  const hw::core::Trajectory truth = hw::core::ReadTumTrajectory(SmoothScan() / "groundtruth.txt");
+  ASSERT_GT(trajectory.size(), 10u);
+  for (const hw::core::TimedPose& p : trajectory.poses()) {
+    // The written pose is the given one interpolated at the frame's time (text precision).
+    EXPECT_LT((p.world_from_sensor.translation - truth.At(p.timestamp_s)->translation).norm(), 1e-5);
+  }
+  const std::string json = Read(out / "reconstruct.json");
+  EXPECT_NE(json.find("\"status\": \"posed\""), std::string::npos);
+  EXPECT_EQ(json.find("\"status\": \"tracked\""), std::string::npos);
+  // A pose file that does not parse: one line naming it, exit 1.
+  const fs::path bad = TestFolder() / "poses.txt";
+  hw::core::WriteFileAtomically(bad, "1.0 0 0 0 0 0 0\n");
+  const Result b = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath("out2").string() +
+                            kOptions + " --poses " + bad.string());
+  EXPECT_EQ(b.exit_code, 1) << b.output;
+  EXPECT_EQ(CountLines(b.output), 1) << b.output;
+  EXPECT_NE(b.output.find("poses.txt"), std::string::npos) << b.output;
+}
+
 TEST(ReconstructCli, OutThatIsAFileIsOneLineAndExit1) {
   const fs::path file = TestFolder() / "model.txt";
   hw::core::WriteFileAtomically(file, "not a folder\n");
