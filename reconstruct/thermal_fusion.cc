@@ -159,8 +159,18 @@ struct ThermalFusion::Impl {
     return region;
   }
 
+  // The region of voxel (i, j, k), or -1 (RegionOf without creating, for readers).
   int32_t FindRegion(int i, int j, int k, uint64_t& cached_key, int32_t& cached_block) const {
-    return const_cast<Impl*>(this)->RegionOf(i, j, k, false, cached_key, cached_block);
+    if (!internal::KeyInRange(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift)) return -1;
+    const uint64_t key = internal::PackKey(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift);
+    if (key != cached_key || cached_block < 0) {
+      const auto it = block_index.find(key);
+      if (it == block_index.end()) return -1;
+      cached_key = key;
+      cached_block = it->second;
+    }
+    return blocks[cached_block][(i & (kBlockSide - 1)) +
+                                kBlockSide * ((j & (kBlockSide - 1)) + kBlockSide * (k & (kBlockSide - 1)))];
   }
 
   // The 8 voxels around a point (voxel centres at integer multiples of voxel_m) and their
