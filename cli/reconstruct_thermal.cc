@@ -21,9 +21,6 @@ using core::JsonArray;
 using core::JsonObject;
 using reconstruct::ThermalMethod;
 
-constexpr ThermalMethod kMethods[] = {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
-                                      ThermalMethod::kOnline, ThermalMethod::kOffline};
-
 // Truth emissivities are matched to model points within this distance of the truth surface
 // (the model is mm to cm off it; farther, the point is not on a surface the truth knows).
 constexpr double kTruthEmissivitySearchM = 0.05;
@@ -140,7 +137,7 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
                             const std::vector<Eigen::Vector3i>& faces, const reconstruct::TemperatureTruth& truth,
                             ThermalCommandResult& result) {
   std::optional<reconstruct::TemperatureComparison> comparison;
-  for (ThermalMethod method : kMethods) {
+  for (ThermalMethod method : reconstruct::kThermalMethods) {
     const reconstruct::PointTemperatures t = fusion.Sample(model_vertices_in_model, method);
     const std::vector<double> estimate(t.surface_c.begin(), t.surface_c.end());
     if (!comparison) {
@@ -151,8 +148,7 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
   }
 }
 
-std::string ThermalJson(const ReconstructCommandOptions& options, const reconstruct::ThermalFusion& fusion,
-                        const ThermalCommandResult& r) {
+std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalCommandResult& r) {
   const reconstruct::ThermalFusionOptions& o = fusion.options();
   const reconstruct::ThermalConfidenceOptions& c = o.confidence;
   JsonObject confidence, offline, settings, summary, timings;
@@ -254,7 +250,6 @@ std::string ThermalJson(const ReconstructCommandOptions& options, const reconstr
     frames.push_back(j.str());
   }
   all.Add("frames", JsonArray(frames, "  "));
-  (void)options;
   return all.str();
 }
 

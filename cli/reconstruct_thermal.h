@@ -39,8 +39,7 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
                             const reconstruct::TemperatureTruth& truth, ThermalCommandResult& result);
 
 // reconstruct.json's "thermal" object (settings, summary, evaluation, per-frame records).
-std::string ThermalJson(const ReconstructCommandOptions& options, const reconstruct::ThermalFusion& fusion,
-                        const ThermalCommandResult& result);
+std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalCommandResult& result);
 
 // The summary's thermal lines.
 std::string FormatThermalSummary(const ThermalCommandResult& result);

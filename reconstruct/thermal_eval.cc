@@ -35,7 +35,10 @@ std::string TemperatureErrorOptions::Check() const {
 }
 
 TemperatureTruth ReadTemperatureTruth(const std::filesystem::path& scene_ply) {
-  const core::PlyMesh mesh = core::ReadPly(scene_ply);
+  return TemperatureTruthFromPly(core::ReadPly(scene_ply), scene_ply);
+}
+
+TemperatureTruth TemperatureTruthFromPly(const core::PlyMesh& mesh, const std::filesystem::path& scene_ply) {
   if (!mesh.HasPositions()) throw core::InputError(scene_ply, "no vertex positions (x y z)");
   if (mesh.faces.empty()) throw core::InputError(scene_ply, "no faces: a truth mesh needs triangles");
   const core::PlyProperty* temperature = mesh.Find("temperature_c");

@@ -19,6 +19,8 @@
 
 #include <Eigen/Core>
 
+#include "core/ply.h"
+
 namespace hw::reconstruct {
 
 // The truth a model's temperatures are compared with: a mesh with a temperature per vertex.
@@ -33,6 +35,8 @@ struct TemperatureTruth {
 // core::InputError naming the file when it cannot be read as PLY, lacks positions, faces or
 // the temperature_c property, or holds a non-finite temperature_c (naming the vertex).
 TemperatureTruth ReadTemperatureTruth(const std::filesystem::path& scene_ply);
+// The same from a mesh already read (scene_ply only names it in errors).
+TemperatureTruth TemperatureTruthFromPly(const core::PlyMesh& mesh, const std::filesystem::path& scene_ply);
 
 // Which model vertices are compared, and which form the "uniform" subset. Defaults for a
 // 5 mm voxel model of a hand-held RGB-D + thermal scan at 0.5–3 m.

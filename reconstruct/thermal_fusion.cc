@@ -112,6 +112,7 @@ struct ThermalFusion::Impl {
   core::BandRadiance band;
   CameraRays rays;
   std::vector<float> distortion_confidence;  // c2 per pixel (fixed for the camera)
+  int num_rays = 0;                          // pixels with a ray through the lens model
   std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
   float voxel_m = 0;
 
@@ -403,6 +404,7 @@ ThermalFusion::ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& o
   m.distortion_confidence.resize(size_t(width) * height);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
+      m.num_rays += m.rays.valid(x, y);
       m.distortion_confidence[size_t(y) * width + x] =
           m.rays.valid(x, y) ? static_cast<float>(DistortionConfidence(m.rays.distortion_px(x, y), options.confidence))
                              : 0.0f;
@@ -501,9 +503,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   raycast.num_threads = m.options.num_threads;
   const PointMap map = Raycast(volume, m.rays, world_from_thermal, raycast);
   record.raycast_ms = Ms(start);
-  for (int y = 0; y < camera.height; ++y) {
-    for (int x = 0; x < camera.width; ++x) record.rays += m.rays.valid(x, y);
-  }
+  record.rays = m.num_rays;
 
   start = std::chrono::steady_clock::now();
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);

@@ -143,8 +143,7 @@ TEST(ThermalFusionTest, RecoversAnalyticSurfaceTemperatureThroughDistortedLens) 
   }
   fusion.Finish();
   const std::vector<Eigen::Vector3f> points = PlanePoints();
-  for (ThermalMethod method : {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
-                               ThermalMethod::kOnline, ThermalMethod::kOffline}) {
+  for (ThermalMethod method : kThermalMethods) {
     const PointTemperatures t = fusion.Sample(points, method);
     double max_error = 0, sum_error = 0;
     for (size_t i = 0; i < points.size(); ++i) {

@@ -51,9 +51,7 @@ std::string ThermalMethodName(ThermalMethod m) {
 }
 
 std::optional<ThermalMethod> ParseThermalMethod(std::string_view name) {
-  for (const ThermalMethod m : {ThermalMethod::kLatest, ThermalMethod::kMean,
-                                ThermalMethod::kCappedMean, ThermalMethod::kOnline,
-                                ThermalMethod::kOffline}) {
+  for (const ThermalMethod m : kThermalMethods) {
     if (name == ThermalMethodName(m)) return m;
   }
   return std::nullopt;

@@ -6,6 +6,7 @@
 // Pure functions of one region's state: the fusion applies them per voxel.
 
 #include <limits>
+#include <array>
 #include <optional>
 #include <span>
 #include <string>
@@ -20,6 +21,10 @@ enum class ThermalMethod {
   kOnline,      // the HeatWave paper's rule (OnlineUpdate)
   kOffline,     // the robust estimate over all views (RobustEstimate)
 };
+// Every method, in the order above (reports and comparisons list them so).
+inline constexpr std::array<ThermalMethod, 5> kThermalMethods = {
+    ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean, ThermalMethod::kOnline,
+    ThermalMethod::kOffline};
 // "latest", "mean", "capped-mean", "online", "offline".
 std::string ThermalMethodName(ThermalMethod m);
 // The method of one of those names; nullopt for any other.
