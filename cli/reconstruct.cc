@@ -192,7 +192,7 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
     }
     all.Add("groundtruth_evaluation", eval.str());
   }
-  if (thermal) all.Add("thermal", ThermalJson(options, *thermal, *r.thermal));
+  if (thermal) all.Add("thermal", ThermalJson(*thermal, *r.thermal));
   all.Add("warnings", JsonArray(warnings, "  ")).Add("frames", JsonArray(frames, "  "));
   return all.str() + "\n";
 }
@@ -232,7 +232,10 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   scan_options.rig_path = options.rig_path;
   const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
   ReconstructCommandOptions resolved = options;
-  if (!options.poses_path.empty()) resolved.scan.poses = core::ReadTumTrajectory(options.poses_path);
+  if (!options.poses_path.empty()) {
+    resolved.scan.poses = core::ReadTumTrajectory(options.poses_path);
+    if (resolved.scan.poses->empty()) throw core::InputError(options.poses_path, "holds no pose");
+  }
 
   // The output folder only once the input opened: a bad scan leaves nothing behind.
   std::error_code ec;
@@ -359,7 +362,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
       points_in_truth.reserve(points.size());
       for (const Eigen::Vector3d& p : points) points_in_truth.push_back(p.cast<float>());
       EvaluateThermalMethods(*thermal, mesh.positions, points_in_truth, mesh.faces,
-                             reconstruct::ReadTemperatureTruth(truth_mesh), *r.thermal);
+                             reconstruct::TemperatureTruthFromPly(truth, truth_mesh), *r.thermal);
     }
   }
 

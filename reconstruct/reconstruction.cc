@@ -529,6 +529,13 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     thermal->Finish();
     out.thermal_finish_seconds = Ms(finish_start) / 1000;
   }
+  if (reconstruction.trajectory().empty() && options.poses && out.unposed_frames > 0 &&
+      out.unposed_frames + out.missing_frames == last - first) {
+    throw core::InputError(scan.IndexPath(Stream::kDepth),
+                           core::StringPrintf("none of the %d depth frames used lies within the given poses "
+                                              "(%.6f to %.6f s)",
+                                              last - first, options.poses->StartTime(), options.poses->EndTime()));
+  }
   if (reconstruction.trajectory().empty()) {
     throw core::InputError(scan.IndexPath(Stream::kDepth),
                            core::StringPrintf("no usable depth: none of the %d depth frames used has "

@@ -104,6 +104,20 @@ TEST(ReconstructCli, GivenPosesAreFusedNotTracked) {
   EXPECT_EQ(b.exit_code, 1) << b.output;
   EXPECT_EQ(CountLines(b.output), 1) << b.output;
   EXPECT_NE(b.output.find("poses.txt"), std::string::npos) << b.output;
+  // No pose at all, and poses that miss every frame: one line each, exit 1, no output.
+  hw::core::WriteFileAtomically(bad, "# nothing\n");
+  const fs::path out3 = FreshPath("out3");
+  const Result e = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out3.string() + kOptions +
+                            " --poses " + bad.string());
+  EXPECT_EQ(e.exit_code, 1) << e.output;
+  EXPECT_NE(e.output.find("holds no pose"), std::string::npos) << e.output;
+  hw::core::WriteFileAtomically(bad, "5000.0 0 0 0 0 0 0 1\n5000.1 0 0 0 0 0 0 1\n");
+  const Result f = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out3.string() + kOptions +
+                            " --poses " + bad.string());
+  EXPECT_EQ(f.exit_code, 1) << f.output;
+  EXPECT_EQ(CountLines(f.output), 1) << f.output;
+  EXPECT_NE(f.output.find("within the given poses"), std::string::npos) << f.output;
+  EXPECT_FALSE(fs::exists(out3));
 }
 
 TEST(ReconstructCli, OutThatIsAFileIsOneLineAndExit1) {
