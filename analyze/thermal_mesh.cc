@@ -1,0 +1,235 @@
+#include "analyze/thermal_mesh.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "analyze/srgb.h"
+#include "core/error.h"
+
+namespace hw::analyze {
+namespace {
+
+std::vector<double> OptionalField(const core::PlyMesh& ply, const char* name,
+                                  const std::vector<int>& kept) {
+  const core::PlyProperty* p = ply.Find(name);
+  if (p == nullptr) return {};
+  std::vector<double> out(kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) {
+    const double v = p->values[static_cast<size_t>(kept[i])];
+    out[i] = std::isfinite(v) ? v : std::nan("");
+  }
+  return out;
+}
+
+}  // namespace
+
+double ThermalMesh::FaceArea(int f) const {
+  const Eigen::Vector3i& t = faces[static_cast<size_t>(f)];
+  const Eigen::Vector3d& a = points_in_world[static_cast<size_t>(t[0])];
+  return 0.5 * (points_in_world[static_cast<size_t>(t[1])] - a)
+                   .cross(points_in_world[static_cast<size_t>(t[2])] - a)
+                   .norm();
+}
+
+double ThermalMesh::TotalArea() const {
+  double sum = 0;
+  for (int f = 0; f < NumFaces(); ++f) sum += FaceArea(f);
+  return sum;
+}
+
+ThermalMesh MakeThermalMesh(const core::PlyMesh& ply, const std::filesystem::path& path_for_errors,
+                            const std::string& temperature_field) {
+  ThermalMesh mesh;
+  MeshLoadReport& report = mesh.report;
+  if (!ply.HasPositions()) throw core::InputError(path_for_errors, "no x y z vertex properties");
+  const std::vector<Eigen::Vector3d> positions = ply.Positions();
+  report.vertices_read = static_cast<int>(positions.size());
+  report.faces_read = static_cast<int>(ply.faces.size());
+  if (ply.faces.empty()) {
+    throw core::InputError(path_for_errors, "no triangles: the analyzer needs a mesh, not a point cloud");
+  }
+  const core::PlyProperty* temperature = ply.Find(temperature_field);
+  if (temperature == nullptr && temperature_field != "temperature_c") {
+    throw core::InputError(path_for_errors, "no vertex property '" + temperature_field + "'");
+  }
+
+  // Keep finite vertices, renumbered.
+  std::vector<int> new_index(positions.size(), -1);
+  std::vector<int> kept;
+  kept.reserve(positions.size());
+  for (size_t v = 0; v < positions.size(); ++v) {
+    if (positions[v].allFinite()) {
+      new_index[v] = static_cast<int>(kept.size());
+      kept.push_back(static_cast<int>(v));
+    } else {
+      ++report.vertices_non_finite;
+    }
+  }
+  mesh.points_in_world.reserve(kept.size());
+  for (int v : kept) mesh.points_in_world.push_back(positions[static_cast<size_t>(v)]);
+
+  int faces_non_finite = 0;
+  mesh.faces.reserve(ply.faces.size());
+  for (const Eigen::Vector3i& f : ply.faces) {
+    const Eigen::Vector3i g(new_index[static_cast<size_t>(f[0])], new_index[static_cast<size_t>(f[1])],
+                            new_index[static_cast<size_t>(f[2])]);
+    if (g.minCoeff() < 0) {
+      ++faces_non_finite;
+      continue;
+    }
+    if (g[0] == g[1] || g[1] == g[2] || g[0] == g[2]) {
+      ++report.faces_degenerate;
+      continue;
+    }
+    const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(g[0])];
+    const double twice_area = (mesh.points_in_world[static_cast<size_t>(g[1])] - a)
+                                  .cross(mesh.points_in_world[static_cast<size_t>(g[2])] - a)
+                                  .norm();
+    if (!(twice_area >= 2e-14)) {
+      ++report.faces_degenerate;
+      continue;
+    }
+    mesh.faces.push_back(g);
+  }
+  if (mesh.faces.empty()) {
+    throw core::InputError(path_for_errors,
+                           "every triangle is degenerate or has a non-finite vertex (" +
+                               std::to_string(report.faces_read) + " faces read)");
+  }
+  if (report.vertices_non_finite > 0) {
+    report.warnings.push_back(std::to_string(report.vertices_non_finite) +
+                              " vertices with non-finite x y z dropped with their " +
+                              std::to_string(faces_non_finite) + " faces");
+  }
+  if (report.faces_degenerate > 0) {
+    report.warnings.push_back(std::to_string(report.faces_degenerate) +
+                              " degenerate triangles (repeated vertex or zero area) dropped");
+  }
+
+  if (temperature != nullptr) {
+    report.has_temperature = true;
+    mesh.temperature_field = temperature_field;
+    mesh.temperature_c.resize(kept.size());
+    for (size_t i = 0; i < kept.size(); ++i) {
+      const double t = temperature->values[static_cast<size_t>(kept[i])];
+      if (std::isinf(t)) ++report.temperatures_non_finite;
+      mesh.temperature_c[i] = std::isfinite(t) ? t : std::nan("");
+      if (!std::isfinite(mesh.temperature_c[i])) ++report.temperatures_unobserved;
+    }
+    if (report.temperatures_non_finite > 0) {
+      report.warnings.push_back(std::to_string(report.temperatures_non_finite) + " infinite " +
+                                temperature_field + " values treated as unobserved");
+    }
+  } else {
+    report.warnings.push_back("no temperature_c vertex property: only colour can be rendered, "
+                              "no spot can be measured");
+  }
+  if (ply.HasColors()) {
+    report.has_colour = true;
+    const std::vector<core::Rgb8> colours = ply.Colors();
+    mesh.colour_linear.reserve(kept.size());
+    for (int v : kept) {
+      const core::Rgb8& c = colours[static_cast<size_t>(v)];
+      mesh.colour_linear.emplace_back(SrgbToLinear(c[0] / 255.0f), SrgbToLinear(c[1] / 255.0f),
+                                      SrgbToLinear(c[2] / 255.0f));
+    }
+  }
+  mesh.confidence = OptionalField(ply, "temperature_confidence", kept);
+  mesh.views = OptionalField(ply, "temperature_views", kept);
+  mesh.std_c = OptionalField(ply, "temperature_std_c", kept);
+
+  // Area-weighted normals (the cross product's length is twice the area).
+  mesh.normals.assign(kept.size(), Eigen::Vector3d::Zero());
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(f[0])];
+    const Eigen::Vector3d n = (mesh.points_in_world[static_cast<size_t>(f[1])] - a)
+                                  .cross(mesh.points_in_world[static_cast<size_t>(f[2])] - a);
+    for (int k = 0; k < 3; ++k) mesh.normals[static_cast<size_t>(f[k])] += n;
+  }
+  for (Eigen::Vector3d& n : mesh.normals) {
+    const double norm = n.norm();
+    n = norm > 0 ? Eigen::Vector3d(n / norm) : Eigen::Vector3d::Zero();
+  }
+  return mesh;
+}
+
+ThermalMesh ReadThermalMesh(const std::filesystem::path& path, const std::string& temperature_field) {
+  return MakeThermalMesh(core::ReadPly(path), path, temperature_field);
+}
+
+std::vector<int> WeldMap(const std::vector<Eigen::Vector3d>& points_in_world, double weld_tolerance_m) {
+  // Sort by x, then compare within the tolerance window: exact for any tolerance, fast when
+  // coincident points are rare in x (the usual case).
+  const int n = static_cast<int>(points_in_world.size());
+  std::vector<int> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const Eigen::Vector3d& p = points_in_world[static_cast<size_t>(a)];
+    const Eigen::Vector3d& q = points_in_world[static_cast<size_t>(b)];
+    if (p.x() != q.x()) return p.x() < q.x();
+    if (p.y() != q.y()) return p.y() < q.y();
+    if (p.z() != q.z()) return p.z() < q.z();
+    return a < b;
+  });
+  std::vector<int> rep(static_cast<size_t>(n));
+  std::iota(rep.begin(), rep.end(), 0);
+  // Union-find over close pairs; representatives are the lowest index.
+  auto find = [&](int v) {
+    while (rep[static_cast<size_t>(v)] != v) {
+      rep[static_cast<size_t>(v)] = rep[static_cast<size_t>(rep[static_cast<size_t>(v)])];
+      v = rep[static_cast<size_t>(v)];
+    }
+    return v;
+  };
+  const double tol2 = weld_tolerance_m * weld_tolerance_m;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d& p = points_in_world[static_cast<size_t>(order[static_cast<size_t>(i)])];
+    for (int j = i + 1; j < n; ++j) {
+      const Eigen::Vector3d& q = points_in_world[static_cast<size_t>(order[static_cast<size_t>(j)])];
+      if (q.x() - p.x() > weld_tolerance_m) break;
+      if ((q - p).squaredNorm() > tol2) continue;
+      const int a = find(order[static_cast<size_t>(i)]);
+      const int b = find(order[static_cast<size_t>(j)]);
+      if (a != b) rep[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+    }
+  }
+  for (int v = 0; v < n; ++v) rep[static_cast<size_t>(v)] = find(v);
+  return rep;
+}
+
+VertexGraph BuildVertexGraph(const ThermalMesh& mesh, double weld_tolerance_m) {
+  const int n = mesh.NumVertices();
+  const std::vector<int> rep = WeldMap(mesh.points_in_world, weld_tolerance_m);
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(mesh.faces.size() * 6 + static_cast<size_t>(n));
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = f[k], b = f[(k + 1) % 3];
+      edges.emplace_back(a, b);
+      edges.emplace_back(b, a);
+    }
+  }
+  for (int v = 0; v < n; ++v) {
+    const int r = rep[static_cast<size_t>(v)];
+    if (r != v) {
+      edges.emplace_back(v, r);
+      edges.emplace_back(r, v);
+    }
+  }
+  // Weld-group members link to their representative: a region grows across a seam in two hops.
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  VertexGraph graph;
+  graph.offsets.assign(static_cast<size_t>(n) + 1, 0);
+  for (const auto& e : edges) ++graph.offsets[static_cast<size_t>(e.first) + 1];
+  for (int v = 0; v < n; ++v) graph.offsets[static_cast<size_t>(v) + 1] += graph.offsets[static_cast<size_t>(v)];
+  graph.neighbours.resize(edges.size());
+  for (size_t i = 0; i < edges.size(); ++i) graph.neighbours[i] = edges[i].second;
+  return graph;
+}
+
+}  // namespace hw::analyze
