@@ -11,6 +11,8 @@ find_package(Ceres 2.1 REQUIRED)
 find_package(Mrcal REQUIRED)
 find_package(embree 3.13 REQUIRED)
 find_package(OpenImageIO 2.4 REQUIRED)
+# nanoflann::nanoflann: header-only k-d trees (analyze/).
+find_package(nanoflann 1.4 REQUIRED)
 # libpng directly (core/image_io.cc): its error handlers are ours, so no decoder prints.
 find_package(PNG 1.6 REQUIRED)
 find_package(OpenNI2 REQUIRED)

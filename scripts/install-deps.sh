@@ -13,6 +13,8 @@ packages=(
   libceres-dev libmrcal-dev libapriltag-dev
   # analyze / fixtures; core decodes JPEG and TIFF frames with OpenImageIO
   libembree-dev libtbb-dev libopenimageio-dev
+  # analyze: k-d trees for nearest-point queries (spot surroundings, before/after alignment)
+  libnanoflann-dev
   # Debian's OpenImageIO CMake config names these files; find_package fails without them
   openimageio-tools python3-imath
   # capture
