@@ -1,0 +1,45 @@
+#pragma once
+
+// A measured hot or cold spot: what analyze.json lists per spot and the report shows.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace hw::analyze {
+
+struct Spot {
+  std::string id;     // "H1", "H2", … (hot), "C1", … (cold), by decreasing |ΔT|
+  bool hot = true;
+  // Temperatures, °C, of the field measured (ThermalMesh::temperature_field).
+  double peak_c = 0;       // maximum (hot) or minimum (cold) over the region
+  double mean_c = 0;       // area-weighted mean over the region
+  double reference_c = 0;  // ambient, or the surrounding surface (see reference below)
+  std::string reference;   // "surrounding", "ambient" or "absolute"
+  double delta_k = 0;      // peak_c − reference_c (negative for a cold spot)
+  double level_c = 0;      // the boundary's iso-temperature
+  // Extent on the surface, with one-sigma uncertainties.
+  double area_m2 = 0;
+  double area_sigma_m2 = 0;
+  double length_m = 0;     // long side of the minimal bounding rectangle on the surface
+  double width_m = 0;      // short side
+  double length_sigma_m = 0;
+  double width_sigma_m = 0;
+  std::string unrolling;   // how the surface was flattened: "plane", "cylinder", "fold"
+  Eigen::Vector3d centroid_in_world = Eigen::Vector3d::Zero();  // area-weighted, metres
+  Eigen::Vector3d peak_in_world = Eigen::Vector3d::Zero();      // vertex of peak_c
+  Eigen::Vector3d normal_in_world = Eigen::Vector3d::UnitZ();   // area-weighted, unit
+  double radius_m = 0;     // largest distance from the centroid to the region (framing)
+  // From reconstruct's per-vertex fields, area-weighted over the region; NaN when absent.
+  double mean_confidence = 0;
+  double mean_views = 0;
+  double boundary_std_c = 0;  // temperature spread across views at the boundary
+  // Severity from the configured table.
+  std::string severity;
+  std::string action;
+  // Faces wholly or partly inside the region (indices into ThermalMesh::faces).
+  std::vector<int> faces;
+};
+
+}  // namespace hw::analyze
