@@ -10,6 +10,7 @@
 // top-left corner is at image coordinates (0, 0), its centre at (0.5, 0.5).
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -34,7 +35,19 @@ struct Camera {
   Eigen::Vector2d Project(const Eigen::Vector3d& point_in_world, double* depth_m = nullptr) const;
   // Ray through image coordinates (x, y): origin and unit direction, world frame.
   void Ray(double x, double y, Eigen::Vector3d* origin_in_world, Eigen::Vector3d* direction_in_world) const;
+
+  // "" when valid (field ranges above, a rotation in world_from_camera), else a message
+  // naming the field, its value and the constraint.
+  std::string Check() const;
 };
+
+// `camera` (its projection and size kept) placed at `eye_in_world` looking at
+// `target_in_world` (camera +z), with `up_in_world` pointing up in the image (camera −y)
+// as far as it can: when up is (nearly, < 1°) parallel to the viewing direction, another
+// world axis is used instead, so a view straight down still has a defined roll. Asserts
+// eye != target and a non-zero up.
+Camera LookAt(const Eigen::Vector3d& eye_in_world, const Eigen::Vector3d& target_in_world,
+              const Eigen::Vector3d& up_in_world, Camera camera = {});
 
 struct RenderOptions {
   // Samples per pixel, a square number 1, 4, 9 or 16: stratified jittered positions (a
@@ -45,6 +58,10 @@ struct RenderOptions {
   int num_threads = 0;
   // Tile side in pixels (16×16 pixels per task), in [4, 256].
   int tile_px = 16;
+  // Ignore faces seen from behind (the ray along the face's counter-clockwise normal): an
+  // overview of a room scanned from inside, shot from outside, then sees through the near
+  // walls into the interior instead of their backs. Unoccluded() never culls.
+  bool cull_back_faces = false;
 
   std::string Check() const;
 };
@@ -67,6 +84,13 @@ struct SampleBuffer {
   }
   size_t NumSamples() const { return face.size(); }
 };
+
+// Where sample s of pixel (x, y) lies inside the pixel, each coordinate in [0, 1) (add x,
+// y for image coordinates): the pixel centre (0.5, 0.5) for 1 sample per pixel; otherwise
+// stratified: sample s lies in cell (s mod n, s div n) of the n×n grid (n² =
+// samples_per_pixel), jittered within it by a hash of (x, y, s), so the pattern is fixed
+// (reproducible images, independent of threads and tiles) yet does not repeat per pixel.
+Eigen::Vector2d SampleOffset(int x, int y, int s, int samples_per_pixel);
 
 // A per-vertex scalar at a sample: barycentric interpolation over the face's vertices whose
 // value is finite, renormalised; NaN when those vertices carry less than half of the
