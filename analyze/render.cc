@@ -266,10 +266,17 @@ MeshRenderer::~MeshRenderer() = default;
 double MeshRenderer::build_seconds() const { return impl_->build_seconds; }
 
 SampleBuffer MeshRenderer::Render(const Camera& camera, const RenderOptions& options) const {
+  SampleBuffer out;
+  Render(camera, options, &out);
+  return out;
+}
+
+void MeshRenderer::Render(const Camera& camera, const RenderOptions& options, SampleBuffer* samples) const {
   assert(options.Check().empty());
   assert(camera.Check().empty());
+  assert(samples != nullptr);
   const int spp = options.samples_per_pixel;
-  SampleBuffer out;
+  SampleBuffer& out = *samples;
   out.width = camera.width;
   out.height = camera.height;
   out.samples_per_pixel = spp;
@@ -374,7 +381,6 @@ SampleBuffer MeshRenderer::Render(const Camera& camera, const RenderOptions& opt
   worker();
   for (std::thread& thread : pool) thread.join();
   impl_->ThrowIfError();
-  return out;
 }
 
 bool MeshRenderer::Unoccluded(const Eigen::Vector3d& from_in_world, const Eigen::Vector3d& to_in_world,

@@ -114,6 +114,9 @@ class MeshRenderer {
 
   // Renders every sample. Asserts options.Check() == "" and a valid camera.
   SampleBuffer Render(const Camera& camera, const RenderOptions& options) const;
+  // The same into *samples, reusing its vectors' memory: renders of one size in a row
+  // then allocate nothing (fresh pages cost a fault each: 98 MB at 4 spp, 1280×960).
+  void Render(const Camera& camera, const RenderOptions& options, SampleBuffer* samples) const;
 
   // True when the segment from `from_in_world` to `to_in_world` hits no surface (both ends
   // excluded by `epsilon_m`): occlusion tests for labels and close-up views.
