@@ -220,7 +220,9 @@ Flattening FlattenOnCylinder(const std::vector<Vector3d>& points, const std::vec
       const Vector3d d = piece.points_in_world[i] - centre;
       const double angle = std::atan2(d.dot(b2), d.dot(b1));
       if (i == 0) first = angle;
-      const double delta = std::remainder(angle - first, kTwoPi);
+      double delta = angle - first;  // to (−π, π]: a face spans far less than π
+      if (delta > std::numbers::pi) delta -= kTwoPi;
+      if (delta <= -std::numbers::pi) delta += kTwoPi;
       lo = std::min(lo, delta);
       hi = std::max(hi, delta);
     }
@@ -253,21 +255,28 @@ Flattening FlattenOnFold(const std::vector<Vector3d>& points, const std::vector<
   const Vector3d b2 = axis.cross(b1);
   const size_t n = pieces.size();
   if (n < 2) return out;
-  // Normal angles around the axis, cut at their largest gap so the clusters are intervals.
-  std::vector<double> phi(n);
-  std::vector<std::pair<double, double>> as_points;
-  as_points.reserve(n);
+  // Normal angles around the axis, sorted once, then read from just after their largest gap
+  // so the two clusters are intervals of that order.
+  std::vector<std::pair<double, int>> sorted(n);
   for (size_t k = 0; k < n; ++k) {
-    phi[k] = Wrap2Pi(std::atan2(pieces[k].normal.dot(b2), pieces[k].normal.dot(b1)));
-    as_points.emplace_back(phi[k], 0.0);
+    sorted[k] = {Wrap2Pi(std::atan2(pieces[k].normal.dot(b2), pieces[k].normal.dot(b1))), static_cast<int>(k)};
   }
-  const Gap gap = LargestUncoveredArc(std::move(as_points));
+  std::sort(sorted.begin(), sorted.end());
+  size_t first = 0;
+  double largest_gap = sorted[0].first + kTwoPi - sorted[n - 1].first;
+  for (size_t i = 1; i < n; ++i) {
+    if (sorted[i].first - sorted[i - 1].first > largest_gap) {
+      largest_gap = sorted[i].first - sorted[i - 1].first;
+      first = i;
+    }
+  }
+  std::vector<double> phi(n);  // per piece, from the start of the order: increasing along it
   std::vector<int> order(n);
-  for (size_t k = 0; k < n; ++k) {
-    phi[k] = Wrap2Pi(phi[k] - gap.middle);
-    order[k] = static_cast<int>(k);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& [angle, k] = sorted[(first + i) % n];
+    order[i] = k;
+    phi[k] = Wrap2Pi(angle - sorted[first].first);
   }
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return phi[a] < phi[b]; });
   // Optimal 1D 2-means by prefix sums: split minimising the within-cluster weighted variance.
   double w_total = 0, s_total = 0, q_total = 0;
   for (int k : order) {

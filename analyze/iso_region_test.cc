@@ -460,36 +460,42 @@ TEST(IsoRegionTest, EmptyRegion) {
 }
 
 TEST(IsoRegionTest, HundredThousandFaces) {
-  // A disc of ~106k faces on a plane, and a full ring of 100k faces on a pipe.
+  // A disc of ~110k faces on a plane, and a full ring of 100k faces on a pipe. Timed twice:
+  // the first run pays the page faults of fresh memory (costly on a VM), the second is the
+  // steady state.
   using Clock = std::chrono::steady_clock;
   const auto ms = [](Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
   const TestMesh plane = MakeGrid({.u0 = -1, .u1 = 1, .v0 = -1, .v1 = 1, .nu = 270, .nv = 270, .jitter = 0.19}, OnPlane);
   const std::vector<double> field = FieldOf(plane, [](const Vector2d& p) { return 40 - 25 * p.squaredNorm(); });
-  auto start = Clock::now();
-  const IsoRegion disc = ClipToLevel(plane.mesh, field, plane.all_faces, 40 - 25 * 0.95, true);
-  const double clip_ms = ms(Clock::now() - start);
-  start = Clock::now();
-  const Extent disc_extent = MeasureExtent(disc, plane.mesh, {});
-  const double extent_ms = ms(Clock::now() - start);
-  EXPECT_GT(disc.faces.size(), 100000u);
-  EXPECT_NEAR(disc.area_m2, kPi * 0.95, kPi * plane.max_circumradius_m * plane.max_circumradius_m);
-  EXPECT_NEAR(disc_extent.length_m, 2 * std::sqrt(0.95), 2 * plane.max_circumradius_m);
-
   const TestMesh pipe = Cylinder(0.1, 0.3, 500, 100, 0.19);
-  std::vector<double> all_hot(pipe.uv.size(), 30.0);
-  start = Clock::now();
-  const IsoRegion ring = ClipToLevel(pipe.mesh, all_hot, pipe.all_faces, 20, true);
-  const double ring_clip_ms = ms(Clock::now() - start);
-  start = Clock::now();
-  const Extent ring_extent = MeasureExtent(ring, pipe.mesh, {});
-  const double ring_extent_ms = ms(Clock::now() - start);
-  EXPECT_EQ(ring.faces.size(), 100000u);
-  EXPECT_TRUE(ring_extent.full_ring);
-  EXPECT_NEAR(ring_extent.length_m, 2 * kPi * 0.1, 2 * kPi * 0.1 * 1e-3);
-  std::printf("disc %zu faces: clip %.1f ms, extent %.1f ms; ring %zu faces: clip %.1f ms, extent %.1f ms\n",
-              disc.faces.size(), clip_ms, extent_ms, ring.faces.size(), ring_clip_ms, ring_extent_ms);
+  const std::vector<double> all_hot(pipe.uv.size(), 30.0);
+  double total_ms = 0;
+  for (int run = 0; run < 2; ++run) {
+    auto start = Clock::now();
+    const IsoRegion disc = ClipToLevel(plane.mesh, field, plane.all_faces, 40 - 25 * 0.95, true);
+    const double clip_ms = ms(Clock::now() - start);
+    start = Clock::now();
+    const Extent disc_extent = MeasureExtent(disc, plane.mesh, {});
+    const double extent_ms = ms(Clock::now() - start);
+    EXPECT_GT(disc.faces.size(), 100000u);
+    EXPECT_NEAR(disc.area_m2, kPi * 0.95, kPi * plane.max_circumradius_m * plane.max_circumradius_m);
+    EXPECT_NEAR(disc_extent.length_m, 2 * std::sqrt(0.95), 2 * plane.max_circumradius_m);
+
+    start = Clock::now();
+    const IsoRegion ring = ClipToLevel(pipe.mesh, all_hot, pipe.all_faces, 20, true);
+    const double ring_clip_ms = ms(Clock::now() - start);
+    start = Clock::now();
+    const Extent ring_extent = MeasureExtent(ring, pipe.mesh, {});
+    const double ring_extent_ms = ms(Clock::now() - start);
+    EXPECT_EQ(ring.faces.size(), 100000u);
+    EXPECT_TRUE(ring_extent.full_ring);
+    EXPECT_NEAR(ring_extent.length_m, 2 * kPi * 0.1, 1e-9);
+    std::printf("run %d: disc %zu faces: clip %.1f ms, extent %.1f ms; ring %zu faces: clip %.1f ms, extent %.1f ms\n",
+                run, disc.faces.size(), clip_ms, extent_ms, ring.faces.size(), ring_clip_ms, ring_extent_ms);
+    total_ms += clip_ms + extent_ms + ring_clip_ms + ring_extent_ms;
+  }
   // Generous (the goal is well under 100 ms each in an optimised build): catches an O(n²).
-  EXPECT_LT(clip_ms + extent_ms + ring_clip_ms + ring_extent_ms, 2000);
+  EXPECT_LT(total_ms, 3000);
 }
 
 }  // namespace
