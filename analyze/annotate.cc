@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <memory>
+#include <utility>
 
 #include <cairo.h>
 #include <pango/pangocairo.h>
@@ -57,7 +58,7 @@ class TextMaker {
     std::unique_ptr<PangoFontDescription, CairoDeleter> font(
         pango_font_description_from_string("DejaVu Sans, Sans"));
     pango_font_description_set_absolute_size(font.get(), font_px_ * scale * PANGO_SCALE);
-    pango_font_description_set_weight(font.get(), bold ? PANGO_WEIGHT_BOLD : PANGO_WEIGHT_NORMAL);
+    pango_font_description_set_weight(font.get(), bold ? PANGO_WEIGHT_SEMIBOLD : PANGO_WEIGHT_NORMAL);
     pango_layout_set_font_description(layout.get(), font.get());
     if (width_px > 0) {
       pango_layout_set_width(layout.get(), width_px * PANGO_SCALE);
@@ -92,7 +93,7 @@ class TextMaker {
     pango_cairo_layout_path(cr_, layout);
     cairo_set_line_join(cr_, CAIRO_LINE_JOIN_ROUND);
     cairo_set_line_width(cr_, 2 * halo_px);
-    SetColour(cr_, kHalo, 0.85);
+    SetColour(cr_, kHalo, 0.7);
     cairo_stroke(cr_);
     cairo_restore(cr_);
     Draw(layout, x, y, colour, alpha);
@@ -252,42 +253,47 @@ void DrawSpot(cairo_t* cr, const TextMaker& text, const SpotLabel& spot, double 
               int image_x, int image_y, int image_w, int image_h) {
   const double x = image_x + spot.position_px[0];
   const double y = image_y + spot.position_px[1];
-  const double radius = 0.5 * font;
+  const double radius = 0.6 * font;  // arm length: the crosshair reaches 1.25 radius
   const double alpha = spot.visible ? 1.0 : 0.75;
   cairo_save(cr);
   cairo_rectangle(cr, image_x, image_y, image_w, image_h);
   cairo_clip(cr);
   if (!spot.visible) {
-    const double dash[] = {0.3 * font, 0.2 * font};
+    const double dash[] = {0.15 * font, 0.12 * font};
     cairo_set_dash(cr, dash, 2, 0);
   }
-  // The marker: a ring with a centre dot, a dark outline under a white line.
+  // The marker: a spot-meter crosshair (four arms around an open centre, so the spot
+  // itself stays visible) and a centre dot; a dark outline under a white line.
   cairo_new_path(cr);
-  cairo_arc(cr, x, y, radius, 0, 2 * M_PI);
-  cairo_set_line_width(cr, 0.28 * font);
-  SetColour(cr, kHalo, 0.85);
+  for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+    cairo_move_to(cr, x + dx * 0.35 * radius, y + dy * 0.35 * radius);
+    cairo_line_to(cr, x + dx * 1.25 * radius, y + dy * 1.25 * radius);
+  }
+  cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_width(cr, 0.3 * font);
+  SetColour(cr, kHalo, 0.8);
   cairo_stroke_preserve(cr);
   cairo_set_line_width(cr, 0.12 * font);
   SetColour(cr, kLabelText, alpha);
   cairo_stroke(cr);
   cairo_set_dash(cr, nullptr, 0, 0);
-  cairo_arc(cr, x, y, 0.12 * font, 0, 2 * M_PI);
+  cairo_arc(cr, x, y, 0.1 * font, 0, 2 * M_PI);
   SetColour(cr, kLabelText, alpha);
   cairo_fill_preserve(cr);
   cairo_set_line_width(cr, 0.08 * font);
-  SetColour(cr, kHalo, 0.85);
+  SetColour(cr, kHalo, 0.8);
   cairo_stroke(cr);
 
   // The label right of the marker, or left when it would leave the image; inside the image.
-  const LayoutPtr label = text.Make(spot.text, 0.95, spot.visible);
+  const LayoutPtr label = text.Make(spot.text, 0.95, spot.visible);  // hidden: regular weight
   const Eigen::Vector2d size = TextMaker::Size(label.get());
   const double pad = 0.25 * font;
-  double text_x = x + radius + 0.4 * font;
-  if (text_x + size[0] > image_x + image_w - pad) text_x = x - radius - 0.4 * font - size[0];
+  double text_x = x + 1.25 * radius + 0.3 * font;
+  if (text_x + size[0] > image_x + image_w - pad) text_x = x - 1.25 * radius - 0.3 * font - size[0];
   text_x = std::max(image_x + pad, std::min(text_x, image_x + image_w - pad - size[0]));
   double text_y = y - size[1] / 2;
   text_y = std::max(image_y + pad, std::min(text_y, image_y + image_h - pad - size[1]));
-  text.DrawWithHalo(label.get(), text_x, text_y, kLabelText, alpha, 0.16 * font);
+  text.DrawWithHalo(label.get(), text_x, text_y, kLabelText, alpha, 0.2 * font);
   cairo_restore(cr);
 }
 

@@ -60,6 +60,28 @@ Eigen::Vector3f DecodeSrgb(const Eigen::Vector3f& encoded) {
   return {SrgbToLinear(encoded[0]), SrgbToLinear(encoded[1]), SrgbToLinear(encoded[2])};
 }
 
+// The palette tabulated once per image (PaletteColour costs three pow() a call): 1024
+// intervals, linear interpolation in linear light; differs from PaletteColour by < 1e-3
+// (under half an 8-bit level after encoding, except where rounding falls on a boundary).
+class PaletteTable {
+ public:
+  PaletteTable(Palette palette, bool inverted) {
+    for (int i = 0; i <= kIntervals; ++i) {
+      table_[static_cast<size_t>(i)] = PaletteColour(palette, inverted, static_cast<double>(i) / kIntervals);
+    }
+  }
+  Eigen::Vector3f operator()(double t01) const {
+    const double position = std::clamp(t01, 0.0, 1.0) * kIntervals;
+    const int i = std::min(static_cast<int>(position), kIntervals - 1);
+    const auto w = static_cast<float>(position - i);
+    return (1 - w) * table_[static_cast<size_t>(i)] + w * table_[static_cast<size_t>(i) + 1];
+  }
+
+ private:
+  static constexpr int kIntervals = 1024;
+  std::array<Eigen::Vector3f, kIntervals + 1> table_;
+};
+
 bool ShowsTemperature(ViewMode mode) { return mode != ViewMode::kColour; }
 
 void CheckBuffer(const ThermalMesh& mesh, const SampleBuffer& samples) {
@@ -147,6 +169,7 @@ ImageRgb8 ComposeView(const ThermalMesh& mesh, const SampleBuffer& samples,
       DecodeSrgb(Eigen::Vector3f(style.background_srgb8[0], style.background_srgb8[1],
                                  style.background_srgb8[2]) /
                  255.0f);
+  const PaletteTable palette(style.palette, style.inverted);
   const auto ambient = static_cast<float>(style.ambient);
   const auto diffuse = static_cast<float>(style.diffuse);
 
@@ -173,7 +196,7 @@ ImageRgb8 ComposeView(const ThermalMesh& mesh, const SampleBuffer& samples,
         Eigen::Vector3f colour = Eigen::Vector3f::Zero();
         switch (style.mode) {
           case ViewMode::kThermal:
-            colour = PaletteColour(style.palette, style.inverted, style.span.Normalize(t_c));
+            colour = palette(style.span.Normalize(t_c));
             break;
           case ViewMode::kColour:
             colour = ColourAtSample(mesh, samples, i);
@@ -187,7 +210,7 @@ ImageRgb8 ComposeView(const ThermalMesh& mesh, const SampleBuffer& samples,
           }
           case ViewMode::kHighlight:
             colour = (t_c < style.band_low_c || t_c > style.band_high_c)
-                         ? PaletteColour(style.palette, style.inverted, style.span.Normalize(t_c))
+                         ? palette(style.span.Normalize(t_c))
                          : ColourAtSample(mesh, samples, i);
             break;
         }

@@ -85,6 +85,24 @@ TEST(ViewsTest, ThermalIsThePaletteAtTheInterpolatedTemperature) {
   EXPECT_EQ(Pixel(image, 0, 0), Encode(PaletteColour(Palette::kRainbow, false, 0.625)));
 }
 
+TEST(ViewsTest, ThermalMatchesThePaletteWithinOneLevelAtAnyTemperature) {
+  // The view tabulates the palette; at temperatures off the table's grid the colour is
+  // still the palette's to within one 8-bit level (rounding at a level boundary).
+  const ThermalMesh mesh = Triangle();
+  SampleBuffer b = Misses(997, 1);
+  for (int x = 0; x < 997; ++x) Hit(&b, x, 0, 0, 0, static_cast<float>(x) / 996);  // 20..40 °C
+  for (Palette palette : {Palette::kIron, Palette::kRainbow, Palette::kDiverging}) {
+    ViewStyle style = Style(ViewMode::kThermal);
+    style.palette = palette;
+    const ImageRgb8 image = ComposeView(mesh, b, mesh.temperature_c, style);
+    for (int x = 0; x < 997; ++x) {
+      const std::array<int, 3> expected = Encode(PaletteColour(palette, false, x / 996.0));
+      const std::array<int, 3> got = Pixel(image, x, 0);
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(got[c], expected[c], 1) << PaletteName(palette) << " x=" << x;
+    }
+  }
+}
+
 TEST(ViewsTest, ColourModeShowsTheVisibleColourOrGrey) {
   ThermalMesh mesh = Triangle(true);
   mesh.colour_linear[2] = Eigen::Vector3f(0.9f, 0.1f, 0.5f);
