@@ -137,7 +137,10 @@ float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& pe
   if (f < 0) return std::numeric_limits<float>::quiet_NaN();
   const double u = samples.bary_u[sample_index];
   const double v = samples.bary_v[sample_index];
-  const double weights[3] = {1.0 - u - v, u, v};
+  // Float barycentrics can stray a hair below 0 at an edge: clamped, and the half-weight
+  // rule taken against their sum.
+  const double weights[3] = {std::max(0.0, 1.0 - u - v), std::max(0.0, u), std::max(0.0, v)};
+  const double total = weights[0] + weights[1] + weights[2];
   const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(f)];
   double weight_sum = 0, value_sum = 0;
   for (int k = 0; k < 3; ++k) {
@@ -146,7 +149,7 @@ float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& pe
     weight_sum += weights[k];
     value_sum += weights[k] * value;
   }
-  if (!(weight_sum >= 0.5)) return std::numeric_limits<float>::quiet_NaN();
+  if (!(weight_sum > 0) || weight_sum < 0.5 * total) return std::numeric_limits<float>::quiet_NaN();
   return static_cast<float>(value_sum / weight_sum);
 }
 

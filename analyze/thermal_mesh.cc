@@ -1,6 +1,9 @@
 #include "analyze/thermal_mesh.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <map>
 #include <cmath>
 #include <numeric>
 #include <string>
@@ -23,6 +26,73 @@ std::vector<double> OptionalField(const core::PlyMesh& ply, const char* name,
     out[i] = std::isfinite(v) ? v : std::nan("");
   }
   return out;
+}
+
+
+// Surfaces that meet along an edge but were divided differently (a wall and a ceiling
+// meshed on their own, a junction of two patches) share no vertices there: every vertex
+// of one side lies on an edge of the other (a T-junction). Each mesh-border vertex lying
+// within the tolerance of another piece's border edge is linked to that edge's two ends,
+// so regions grow across such seams as across welded ones.
+void StitchTJunctions(const ThermalMesh& mesh, const std::vector<int>& rep, double weld_tolerance_m,
+                      std::vector<std::pair<int, int>>* edges) {
+  // Border edges: used by one face once coincident vertices are joined.
+  std::map<std::pair<int, int>, int> uses;
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    for (int k = 0; k < 3; ++k) {
+      int a = rep[static_cast<size_t>(f[k])], b = rep[static_cast<size_t>(f[(k + 1) % 3])];
+      if (a > b) std::swap(a, b);
+      ++uses[{a, b}];
+    }
+  }
+  std::vector<std::pair<int, int>> border;
+  for (const auto& [edge, count] : uses) {
+    if (count == 1) border.push_back(edge);
+  }
+  if (border.empty()) return;
+  // A T-junction's vertex is off the other side's edge by the rounding of float32 positions
+  // (~1e-7 relative, so ~1e-6 m at a few metres); 1e-4 m is far below any mesh edge.
+  const double tolerance = std::max(weld_tolerance_m, 1e-4);
+  const double cell = 0.05;
+  auto key = [&](double x, double y, double z) {
+    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(x / cell)),
+                                       static_cast<std::int64_t>(std::floor(y / cell)),
+                                       static_cast<std::int64_t>(std::floor(z / cell))};
+  };
+  std::map<std::array<std::int64_t, 3>, std::vector<int>> grid;
+  for (size_t e = 0; e < border.size(); ++e) {
+    const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(border[e].first)];
+    const Eigen::Vector3d& b = mesh.points_in_world[static_cast<size_t>(border[e].second)];
+    const Eigen::Vector3d lo = a.cwiseMin(b).array() - tolerance, hi = a.cwiseMax(b).array() + tolerance;
+    const auto k0 = key(lo.x(), lo.y(), lo.z()), k1 = key(hi.x(), hi.y(), hi.z());
+    // A long border edge spans many cells; cap the work for pathological inputs.
+    if ((k1[0] - k0[0] + 1) * (k1[1] - k0[1] + 1) * (k1[2] - k0[2] + 1) > 4096) continue;
+    for (std::int64_t x = k0[0]; x <= k1[0]; ++x) {
+      for (std::int64_t y = k0[1]; y <= k1[1]; ++y) {
+        for (std::int64_t z = k0[2]; z <= k1[2]; ++z) grid[{x, y, z}].push_back(static_cast<int>(e));
+      }
+    }
+  }
+  std::vector<char> on_border(mesh.points_in_world.size(), 0);
+  for (const auto& [a, b] : border) on_border[static_cast<size_t>(a)] = on_border[static_cast<size_t>(b)] = 1;
+  for (size_t v = 0; v < on_border.size(); ++v) {
+    if (!on_border[v]) continue;
+    const Eigen::Vector3d& p = mesh.points_in_world[v];
+    const auto it = grid.find(key(p.x(), p.y(), p.z()));
+    if (it == grid.end()) continue;
+    for (int e : it->second) {
+      const int a = border[static_cast<size_t>(e)].first, b = border[static_cast<size_t>(e)].second;
+      if (a == static_cast<int>(v) || b == static_cast<int>(v)) continue;
+      const Eigen::Vector3d& pa = mesh.points_in_world[static_cast<size_t>(a)];
+      const Eigen::Vector3d ab = mesh.points_in_world[static_cast<size_t>(b)] - pa;
+      const double t = std::clamp((p - pa).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+      if ((pa + t * ab - p).norm() > tolerance) continue;
+      for (int end : {a, b}) {
+        edges->emplace_back(static_cast<int>(v), end);
+        edges->emplace_back(end, static_cast<int>(v));
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -220,6 +290,7 @@ VertexGraph BuildVertexGraph(const ThermalMesh& mesh, double weld_tolerance_m) {
       edges.emplace_back(r, v);
     }
   }
+  StitchTJunctions(mesh, rep, weld_tolerance_m, &edges);
   // Weld-group members link to their representative: a region grows across a seam in two hops.
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());

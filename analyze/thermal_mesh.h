@@ -84,7 +84,9 @@ struct VertexGraph {
 
 // The edge graph of the mesh with coincident vertices joined: vertices closer than
 // `weld_tolerance_m` are linked to each other (zero-length edges), so a seam or a vertex
-// duplicated across an emissivity boundary does not split a region. O(V log V + F).
+// duplicated across an emissivity boundary does not split a region; and pieces that meet
+// along an edge divided differently on each side (T-junctions: a border vertex within
+// 0.1 mm of another piece's border edge) are linked to that edge's ends. O(V log V + F log F).
 VertexGraph BuildVertexGraph(const ThermalMesh& mesh, double weld_tolerance_m = 1e-6);
 
 // The same mesh with every face's vertices mapped to one representative per group of

@@ -16,31 +16,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Linear grey standing in for the visible colour of a mesh without colour (sRGB ≈ 188).
 constexpr float kNoColourGreyLinear = 0.5f;
 
-// Same rule as InterpolateAtSample (analyze/render.h): barycentric interpolation over the
-// face's vertices with a finite value, renormalised; NaN when they carry less than half of
-// the weight, or for a miss. Kept private here so that views do not link the renderer
-// (the same rule as render.cc's InterpolateAtSample: one of the two can go on merging).
-double FieldAtSample(const ThermalMesh& mesh, const std::vector<double>& per_vertex,
-                    const SampleBuffer& samples, size_t i) {
-  const int f = samples.face[i];
-  if (f < 0) return kNaN;
-  const Eigen::Vector3i& tri = mesh.faces[static_cast<size_t>(f)];
-  const double u = samples.bary_u[i];
-  const double v = samples.bary_v[i];
-  const double weights[3] = {std::max(0.0, 1 - u - v), std::max(0.0, u), std::max(0.0, v)};
-  double sum = 0;
-  double weight = 0;
-  double total = 0;
-  for (int k = 0; k < 3; ++k) {
-    total += weights[k];
-    const double value = per_vertex[static_cast<size_t>(tri[k])];
-    if (!std::isfinite(value)) continue;
-    sum += weights[k] * value;
-    weight += weights[k];
-  }
-  if (!(weight > 0) || weight < 0.5 * total) return kNaN;
-  return sum / weight;
-}
 
 Eigen::Vector3f ColourAtSample(const ThermalMesh& mesh, const SampleBuffer& samples, size_t i) {
   if (!mesh.HasColour()) return Eigen::Vector3f::Constant(kNoColourGreyLinear);
@@ -188,7 +163,7 @@ ImageRgb8 ComposeView(const ThermalMesh& mesh, const SampleBuffer& samples,
           continue;
         }
         const float shading = ambient + diffuse * std::clamp(samples.cos_incidence[i], 0.0f, 1.0f);
-        const double t_c = shows_temperature ? FieldAtSample(mesh, field_c, samples, i) : kNaN;
+        const double t_c = shows_temperature ? static_cast<double>(InterpolateAtSample(mesh, field_c, samples, i)) : kNaN;
         if (shows_temperature && std::isnan(t_c)) {
           sum += Eigen::Vector3f::Constant(UnobservedHatchGrey(x, y, style.hatch_period_px) * shading);
           continue;
@@ -235,7 +210,7 @@ std::vector<float> TemperatureImage(const ThermalMesh& mesh, const SampleBuffer&
       double sum = 0;
       int count = 0;
       for (int s = 0; s < samples.samples_per_pixel; ++s) {
-        const double value = FieldAtSample(mesh, field_c, samples, samples.Index(x, y, s));
+        const double value = InterpolateAtSample(mesh, field_c, samples, samples.Index(x, y, s));
         if (std::isnan(value)) continue;
         sum += value;
         ++count;

@@ -14,6 +14,7 @@ const std::vector<Command>& Commands() {
       {"scan-info", RunScanInfo, "validate a scan folder and summarise its streams"},
       {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
       {"reconstruct", RunReconstruct, "track the depth stream and fuse a coloured 3D model"},
+      {"analyze", RunAnalyze, "find and measure hot and cold spots on a model; render it in the four modes"},
       {"eval-trajectory", RunEvalTrajectory,
        "ATE and RPE of a TUM trajectory against a ground truth"},
   };

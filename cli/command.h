@@ -68,6 +68,7 @@ int RunVersion(int argc, char** argv);
 int RunScanInfo(int argc, char** argv);
 int RunSynth(int argc, char** argv);
 int RunReconstruct(int argc, char** argv);
+int RunAnalyze(int argc, char** argv);
 int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli

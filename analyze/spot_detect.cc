@@ -1,0 +1,710 @@
+#include "analyze/spot_detect.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <numeric>
+#include <queue>
+#include <unordered_map>
+#include <utility>
+
+#include "analyze/iso_region.h"
+#include "core/option_check.h"
+#include "core/yaml_reader.h"
+
+namespace hw::analyze {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
+
+size_t U(int i) { return static_cast<size_t>(i); }
+
+// Area-weighted median of (value, weight) pairs; NaN for none. Reorders `samples`.
+double WeightedMedian(std::vector<std::pair<double, double>>& samples) {
+  if (samples.empty()) return kNaN;
+  std::sort(samples.begin(), samples.end());
+  double total = 0;
+  for (const auto& s : samples) total += s.second;
+  double sum = 0;
+  for (const auto& s : samples) {
+    sum += s.second;
+    if (sum >= 0.5 * total) return s.first;
+  }
+  return samples.back().first;
+}
+
+// One third of the area of every face around each vertex, m².
+std::vector<double> VertexAreas(const ThermalMesh& mesh) {
+  std::vector<double> area(U(mesh.NumVertices()), 0.0);
+  for (int f = 0; f < mesh.NumFaces(); ++f) {
+    const double a = mesh.FaceArea(f) / 3;
+    for (int k = 0; k < 3; ++k) area[U(mesh.faces[U(f)][k])] += a;
+  }
+  return area;
+}
+
+// The local background: area-weighted median of the field within `radius_m`, evaluated per
+// cell of a grid of radius/2 and taken by every vertex of the cell. Each cell contributes
+// at most kPerCell vertices (evenly strided, weights scaled to the cell's area) so the cost
+// does not grow with the mesh's local density.
+std::vector<double> LocalBackground(const ThermalMesh& mesh, const std::vector<double>& field,
+                                    const std::vector<double>& vertex_area, double radius_m) {
+  constexpr int kPerCell = 48;
+  const double cell_m = radius_m / 2;
+  struct Key {
+    std::int64_t x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return static_cast<size_t>(k.x * 73856093 ^ k.y * 19349663 ^ k.z * 83492791);
+    }
+  };
+  auto key_of = [&](const Eigen::Vector3d& p) {
+    return Key{static_cast<std::int64_t>(std::floor(p.x() / cell_m)),
+               static_cast<std::int64_t>(std::floor(p.y() / cell_m)),
+               static_cast<std::int64_t>(std::floor(p.z() / cell_m))};
+  };
+  std::unordered_map<Key, std::vector<int>, KeyHash> cells;
+  for (int v = 0; v < mesh.NumVertices(); ++v) {
+    if (std::isfinite(field[U(v)]) && vertex_area[U(v)] > 0) cells[key_of(mesh.points_in_world[U(v)])].push_back(v);
+  }
+  struct Sampled {
+    std::vector<std::pair<double, double>> values;  // (field, weight)
+  };
+  std::unordered_map<Key, Sampled, KeyHash> sampled;
+  for (const auto& [key, members] : cells) {
+    Sampled s;
+    const size_t stride = std::max<size_t>(1, members.size() / kPerCell);
+    double area_all = 0, area_kept = 0;
+    for (int v : members) area_all += vertex_area[U(v)];
+    for (size_t i = 0; i < members.size(); i += stride) {
+      s.values.emplace_back(field[U(members[i])], vertex_area[U(members[i])]);
+      area_kept += vertex_area[U(members[i])];
+    }
+    for (auto& value : s.values) value.second *= area_all / area_kept;
+    sampled.emplace(key, std::move(s));
+  }
+  std::unordered_map<Key, double, KeyHash> cell_background;
+  std::vector<std::pair<double, double>> gathered;
+  const int reach = 2;  // cells within radius of the cell centre
+  for (const auto& [key, members] : cells) {
+    (void)members;
+    gathered.clear();
+    for (std::int64_t dx = -reach; dx <= reach; ++dx) {
+      for (std::int64_t dy = -reach; dy <= reach; ++dy) {
+        for (std::int64_t dz = -reach; dz <= reach; ++dz) {
+          if (dx * dx + dy * dy + dz * dz > (reach + 1) * (reach + 1) - 1) continue;  // a ball
+          const auto it = sampled.find(Key{key.x + dx, key.y + dy, key.z + dz});
+          if (it == sampled.end()) continue;
+          gathered.insert(gathered.end(), it->second.values.begin(), it->second.values.end());
+        }
+      }
+    }
+    cell_background[key] = WeightedMedian(gathered);
+  }
+  std::vector<double> background(U(mesh.NumVertices()), kNaN);
+  for (const auto& [key, members] : cells) {
+    const double b = cell_background[key];
+    for (int v : members) background[U(v)] = b;
+  }
+  return background;
+}
+
+// Everything one measurement needs, shared over candidates.
+struct Context {
+  const ThermalMesh& mesh;
+  const VertexGraph& graph;
+  const std::vector<double>& field;  // oriented: hot spots are maxima (cold: negated)
+  const std::vector<double>& vertex_area;
+  const SpotOptions& options;
+  const std::vector<std::vector<int>>& vertex_faces;
+};
+
+// The connected set of vertices with field >= level containing `seed`, stopping (returns
+// false) once its area passes max_area_m2.
+bool GrowRegion(const Context& c, int seed, double level, std::vector<int>* region,
+                std::vector<char>* in_region) {
+  region->clear();
+  std::vector<int> stack = {seed};
+  (*in_region)[U(seed)] = 1;
+  double area = 0;
+  bool small = true;
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    region->push_back(v);
+    area += c.vertex_area[U(v)];
+    if (area > c.options.max_area_m2) {
+      small = false;
+      break;
+    }
+    for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
+      const int w = c.graph.neighbours[U(i)];
+      if ((*in_region)[U(w)] || !(c.field[U(w)] >= level)) continue;
+      (*in_region)[U(w)] = 1;
+      stack.push_back(w);
+    }
+  }
+  for (int v : stack) region->push_back(v);  // marked but not expanded (only when stopped)
+  return small;
+}
+
+struct Ring {
+  double reference = kNaN;  // area-weighted median of the oriented field
+  double spread = kNaN;     // 1.4826·MAD, area-weighted: the surroundings' noise
+  double area_m2 = 0;
+  double coverage = 0;      // observed area / expected area
+  int vertices = 0;
+};
+
+// The decay length of the spot's own tail, m: |level − reference| over the median
+// temperature gradient along the boundary. For a step blurred by a kernel of scale σ, or a
+// defect whose heat spreads exponentially over a length f, this is ≈ 1.25 σ or f: the
+// surroundings are measured several of these beyond the boundary, where the tail is gone.
+double TailLength(const IsoRegion& iso, double level_minus_reference) {
+  std::vector<std::pair<double, double>> gradients;
+  for (const IsoSegment& s : iso.boundary) {
+    gradients.emplace_back(s.gradient_k_per_m, (s.b_in_world - s.a_in_world).norm());
+  }
+  const double gradient = WeightedMedian(gradients);
+  if (!(gradient > 0)) return 0;
+  return std::abs(level_minus_reference) / gradient;
+}
+
+// The ring of surface between gap and gap + width from the region, over the mesh
+// (multi-source Dijkstra on the edge graph, which overestimates surface distances by a few
+// per cent: the ring sits slightly closer than asked). The ring stays on the spot's own
+// smooth surface: a path stops where the normal has turned by more than
+// ring_max_normal_change_deg from the normal of the region vertex it started from, so the
+// surroundings of a spot on a breaker face are that face, not the panel behind it, and a
+// whole part (a pane in its frame, an end shield on a motor) has no surroundings of its own.
+Ring MeasureRing(const Context& c, const std::vector<int>& region, double region_area_m2,
+                 double perimeter_m, double tail_m) {
+  const double r = std::sqrt(region_area_m2 / kPi);
+  const double gap = std::max(c.options.ring_gap_m, c.options.ring_gap_tails * tail_m);
+  const double width = std::max(c.options.ring_width_m, r);
+  const double stop = gap + width;
+  const double min_cos = std::cos(c.options.ring_max_normal_change_deg * kPi / 180);
+  struct Visit {
+    double distance;
+    int source;
+  };
+  std::unordered_map<int, Visit> visits;
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  for (int v : region) {
+    visits[v] = {0, v};
+    queue.emplace(0.0, v);
+  }
+  std::vector<std::pair<double, double>> samples;
+  Ring ring;
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    const Visit visit = visits[v];
+    if (d > visit.distance) continue;
+    if (d >= gap && std::isfinite(c.field[U(v)])) {
+      samples.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
+      ring.area_m2 += c.vertex_area[U(v)];
+    }
+    const Eigen::Vector3d& source_normal = c.mesh.normals[U(visit.source)];
+    for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
+      const int w = c.graph.neighbours[U(i)];
+      const double dw = d + (c.mesh.points_in_world[U(w)] - c.mesh.points_in_world[U(v)]).norm();
+      if (dw > stop) continue;
+      if (c.mesh.normals[U(w)].dot(source_normal) < min_cos) continue;
+      const auto it = visits.find(w);
+      if (it != visits.end() && it->second.distance <= dw) continue;
+      visits[w] = {dw, visit.source};
+      queue.emplace(dw, w);
+    }
+  }
+  ring.vertices = static_cast<int>(samples.size());
+  // A region whose outline runs along mesh borders (a pane meshed on its own) has no
+  // iso-line there: its perimeter is at least that of the disc of its area.
+  const double outline_m = std::max(perimeter_m, 2 * kPi * r);
+  const double expected = outline_m * width + kPi * (stop * stop - gap * gap);
+  ring.coverage = expected > 0 ? ring.area_m2 / expected : 0;
+  if (samples.empty()) return ring;
+  ring.reference = WeightedMedian(samples);
+  for (auto& x : samples) x.first = std::abs(x.first - ring.reference);
+  ring.spread = 1.4826 * WeightedMedian(samples);
+  return ring;
+}
+
+// Area-weighted mean of the hottest 5 % of the region: the peak that sets the level, robust
+// to one noisy vertex (on a plateau the maximum of N noisy vertices sits ~2σ high) while equal
+// to the maximum on an exact mesh whose extreme is a plateau or a line.
+double RobustPeak(const Context& c, const std::vector<int>& region) {
+  std::vector<std::pair<double, double>> values;
+  double total = 0;
+  for (int v : region) {
+    values.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
+    total += c.vertex_area[U(v)];
+  }
+  std::sort(values.begin(), values.end(), std::greater<>());
+  double sum = 0, weighted = 0;
+  for (const auto& [value, area] : values) {
+    sum += area;
+    weighted += value * area;
+    if (sum >= 0.05 * total) break;
+  }
+  return sum > 0 ? weighted / sum : values.front().first;
+}
+
+}  // namespace
+
+std::vector<SeverityBand> NetaSeverityTable() {
+  return {{1.0, "possible", "Possible deficiency: warrants investigation"},
+          {4.0, "probable", "Probable deficiency: repair as time permits"},
+          {16.0, "major", "Major discrepancy: repair immediately"}};
+}
+
+std::string CheckSeverityTable(const std::vector<SeverityBand>& table) {
+  if (table.empty()) return "severity: must have at least one band";
+  for (size_t i = 0; i < table.size(); ++i) {
+    const std::string key = "severity[" + std::to_string(i) + "]";
+    if (table[i].name.empty()) return key + ".name: must not be empty";
+    if (!std::isfinite(table[i].min_delta_k) || table[i].min_delta_k < 0) {
+      return core::OptionFail(key + ".min_delta_k", table[i].min_delta_k, "finite and >= 0");
+    }
+    if (i > 0 && !(table[i].min_delta_k > table[i - 1].min_delta_k)) {
+      return core::OptionFail(key + ".min_delta_k", table[i].min_delta_k,
+                              "> the previous band's " + core::RoundedNumber(table[i - 1].min_delta_k) +
+                                  " (bands in increasing order)");
+    }
+  }
+  return "";
+}
+
+const SeverityBand* SeverityFor(const std::vector<SeverityBand>& table, double delta_k) {
+  const SeverityBand* band = nullptr;
+  for (const SeverityBand& b : table) {
+    if (std::abs(delta_k) >= b.min_delta_k) band = &b;
+  }
+  return band;
+}
+
+std::string SpotOptions::Check() const {
+  if (reference == Reference::kAmbient && !std::isfinite(ambient_c)) {
+    return core::OptionFail("ambient_c", ambient_c, "finite with reference ambient");
+  }
+  if (!(min_delta_k > 0) || !std::isfinite(min_delta_k)) return core::OptionFail("min_delta_k", min_delta_k, "> 0");
+  if (detect == Detect::kAbsolute) {
+    if (find_hot && !std::isfinite(hot_above_c)) {
+      return core::OptionFail("hot_above_c", hot_above_c, "finite with detect absolute (or find no hot spots)");
+    }
+    if (find_cold && !std::isfinite(cold_below_c)) {
+      return core::OptionFail("cold_below_c", cold_below_c, "finite with detect absolute (or find no cold spots)");
+    }
+    if (find_hot && find_cold && !(cold_below_c < hot_above_c)) {
+      return core::OptionFail("cold_below_c", cold_below_c, "< hot_above_c (an inverted band)");
+    }
+  }
+  if (!find_hot && !find_cold) return "find_hot, find_cold: at least one must be true";
+  if (!(boundary_fraction > 0 && boundary_fraction < 1)) {
+    return core::OptionFail("boundary_fraction", boundary_fraction, "in (0, 1)");
+  }
+  if (!core::InRange(min_area_m2, 0, 1e6)) return core::OptionFail("min_area_m2", min_area_m2, "in [0, 1e6]");
+  if (!(max_area_m2 > min_area_m2) || !std::isfinite(max_area_m2)) {
+    return core::OptionFail("max_area_m2", max_area_m2, "finite and > min_area_m2");
+  }
+  if (!core::InRange(background_radius_m, 1e-3, 100)) {
+    return core::OptionFail("background_radius_m", background_radius_m, "in [0.001, 100]");
+  }
+  if (!core::InRange(ring_gap_m, 0, 10)) return core::OptionFail("ring_gap_m", ring_gap_m, "in [0, 10]");
+  if (!core::InRange(ring_gap_tails, 0, 20)) {
+    return core::OptionFail("ring_gap_tails", ring_gap_tails, "in [0, 20]");
+  }
+  if (!core::InRange(ring_width_m, 1e-3, 10)) return core::OptionFail("ring_width_m", ring_width_m, "in [0.001, 10]");
+  if (!(ring_max_normal_change_deg > 0 && ring_max_normal_change_deg <= 180)) {
+    return core::OptionFail("ring_max_normal_change_deg", ring_max_normal_change_deg, "in (0, 180]");
+  }
+  if (!core::InRange(min_ring_coverage, 0, 1)) {
+    return core::OptionFail("min_ring_coverage", min_ring_coverage, "in [0, 1]");
+  }
+  if (!severity.empty()) return CheckSeverityTable(severity);
+  return "";
+}
+
+namespace {
+
+// Measures one candidate of one kind (the field oriented so that the spot is a maximum).
+// Returns false with `reason` when it is not a spot.
+struct Measured {
+  std::vector<int> region;
+  double reference = kNaN;  // oriented
+  double level = kNaN;      // oriented
+  double peak = kNaN;       // oriented, robust
+  Ring ring;
+  IsoRegion iso;
+};
+
+bool MeasureCandidate(const Context& c, int seed, double start_reference, double ambient,
+                      double absolute_level, std::vector<char>* in_region, Measured* m,
+                      std::string* reason) {
+  const SpotOptions& o = c.options;
+  const bool absolute = o.detect == SpotOptions::Detect::kAbsolute;
+  const bool surrounding = o.reference == SpotOptions::Reference::kSurrounding;
+  double reference = surrounding ? start_reference : ambient;
+  std::vector<int> faces;
+  constexpr int kMaxIterations = 8;
+  for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
+    for (int v : m->region) (*in_region)[U(v)] = 0;
+    // The level: half way (boundary_fraction) from the reference to the peak; the peak is
+    // the robust one of the region at the previous level (the seed alone at first).
+    const double peak = m->region.empty() ? c.field[U(seed)] : RobustPeak(c, m->region);
+    const double level = absolute ? absolute_level : reference + o.boundary_fraction * (peak - reference);
+    // Against ambient the ΔT is known at once; the local background of a candidate (the
+    // median within background_radius_m) is only a start: inside a spot wider than that
+    // radius it sits near the peak, so the surroundings' ring decides, below.
+    if (!absolute && !surrounding && !(peak - reference >= o.min_delta_k)) {
+      *reason = "ΔT to the reference below min_delta_k";
+      for (int v : m->region) (*in_region)[U(v)] = 0;
+      m->region.clear();
+      return false;
+    }
+    const bool small = GrowRegion(c, seed, level, &m->region, in_region);
+    if (!small) {
+      *reason = "region larger than max_area_m2: a surface at another temperature, not a spot";
+      for (int v : m->region) (*in_region)[U(v)] = 0;
+      m->region.clear();
+      return false;
+    }
+    faces.clear();
+    for (int v : m->region) faces.insert(faces.end(), c.vertex_faces[U(v)].begin(), c.vertex_faces[U(v)].end());
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    m->iso = ClipToLevel(c.mesh, c.field, faces, level, true);
+    m->level = level;
+    m->peak = RobustPeak(c, m->region);
+    if (!surrounding) {
+      m->reference = reference;
+      if (!absolute) {
+        // The level moves with the robust peak of the grown region; iterate on it too.
+        const double next_level = reference + o.boundary_fraction * (m->peak - reference);
+        if (std::abs(next_level - level) < 1e-3) break;
+      } else {
+        break;
+      }
+      continue;
+    }
+    m->ring = MeasureRing(c, m->region, m->iso.area_m2, m->iso.perimeter_m, TailLength(m->iso, level - reference));
+    if (absolute && !(m->ring.coverage >= o.min_ring_coverage && std::isfinite(m->ring.reference))) {
+      // A limit needs no surroundings; ΔT is then taken over the limit itself.
+      m->reference = level;
+      m->ring = Ring();
+      break;
+    }
+    if (!(m->ring.coverage >= o.min_ring_coverage) || !std::isfinite(m->ring.reference)) {
+      *reason = "no surrounding surface to compare with (ring coverage " +
+                core::RoundedNumber(m->ring.coverage) + " < min_ring_coverage)";
+      for (int v : m->region) (*in_region)[U(v)] = 0;
+      m->region.clear();
+      return false;
+    }
+    m->reference = m->ring.reference;
+    const double next_level = absolute ? level : m->reference + o.boundary_fraction * (m->peak - m->reference);
+    if (std::abs(m->ring.reference - reference) < 1e-3 && std::abs(next_level - level) < 1e-3) break;
+    reference = m->ring.reference;
+  }
+  if (!absolute && !(std::abs(m->peak - m->reference) >= o.min_delta_k)) {
+    *reason = "ΔT to the reference below min_delta_k";
+  } else if (m->iso.area_m2 < o.min_area_m2) {
+    *reason = "area below min_area_m2";
+  } else {
+    return true;
+  }
+  for (int v : m->region) (*in_region)[U(v)] = 0;
+  m->region.clear();
+  return false;
+}
+
+// Uncertainties of area, length and width (one sigma), and the reconstruct fields.
+void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
+  const ThermalMesh& mesh = c.mesh;
+  const std::vector<double>& t = mesh.temperature_c;
+  spot->reference_c = sign * m.reference;
+  spot->level_c = sign * m.level;
+  spot->area_m2 = m.iso.area_m2;
+  spot->centroid_in_world = m.iso.centroid_in_world;
+  spot->normal_in_world = m.iso.normal_in_world;
+  spot->faces = m.iso.faces;
+  // Peak: the extreme vertex of the region.
+  int peak_vertex = m.region.front();
+  for (int v : m.region) {
+    if (c.field[U(v)] > c.field[U(peak_vertex)]) peak_vertex = v;
+  }
+  spot->peak_c = t[U(peak_vertex)];
+  spot->peak_in_world = mesh.points_in_world[U(peak_vertex)];
+  spot->delta_k = spot->peak_c - spot->reference_c;
+  // Area-weighted means over the region's vertices.
+  double area = 0, mean = 0, confidence = 0, views = 0;
+  for (int v : m.region) {
+    const double a = c.vertex_area[U(v)];
+    area += a;
+    mean += a * t[U(v)];
+    if (!mesh.confidence.empty()) confidence += a * mesh.confidence[U(v)];
+    if (!mesh.views.empty()) views += a * mesh.views[U(v)];
+  }
+  spot->mean_c = area > 0 ? mean / area : spot->peak_c;
+  spot->mean_confidence = mesh.confidence.empty() || area <= 0 ? kNaN : confidence / area;
+  spot->mean_views = mesh.views.empty() || area <= 0 ? kNaN : views / area;
+  spot->radius_m = 0;
+  for (const ClippedPiece& piece : m.iso.pieces) {
+    for (int k = 0; k < piece.num_points; ++k) {
+      spot->radius_m = std::max(spot->radius_m, (piece.points_in_world[U(k)] - spot->centroid_in_world).norm());
+    }
+  }
+
+  // Boundary noise per iso-segment: σ_T of one vertex (spread across views over √views where
+  // reconstruct gave them, else the surroundings' spread), inflated by 1/√C for a mean
+  // confidence C < 1 (the online rule's confidence is a weight of evidence); the segment's
+  // position error is σ_T / |∇T| plus the mesh resolution term h/√12 (the iso-line can sit
+  // anywhere in a triangle of side h when the field is sharper than the mesh). These are
+  // independent between segments. The reference's error (median of the ring: 1.2533 σ/√n)
+  // and the robust peak's move the level, hence the whole boundary at once.
+  const double ring_sigma = std::isfinite(m.ring.spread) ? m.ring.spread : 0.0;
+  double coherent_area = 0, incoherent_area2 = 0, coherent_d = 0, incoherent_d2 = 0, length_sum = 0;
+  double boundary_std = 0;
+  int boundary_vertices = 0;
+  double sigma_reference = m.ring.vertices > 0 ? 1.2533 * ring_sigma / std::sqrt(m.ring.vertices) : 0.0;
+  const double f = c.options.boundary_fraction;
+  // The peak that sets the level is the mean of the hottest 5 %; the maximum may stand
+  // above it (noise on a plateau, or a profile that never flattens): their difference is
+  // the peak's uncertainty, added to the vertex noise.
+  double region_max = -std::numeric_limits<double>::infinity();
+  for (int v : m.region) region_max = std::max(region_max, c.field[U(v)]);
+  const double sigma_peak_shape = std::isfinite(region_max) ? region_max - m.peak : 0.0;
+  for (const IsoSegment& s : m.iso.boundary) {
+    const Eigen::Vector3i& face = mesh.faces[U(s.face)];
+    double sigma_t = ring_sigma, conf = 1, h = 0;
+    if (!mesh.std_c.empty() && !mesh.views.empty()) {
+      double sum = 0;
+      int n = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double sd = mesh.std_c[U(face[k])], nv = mesh.views[U(face[k])];
+        if (std::isfinite(sd) && nv >= 1) {
+          sum += sd / std::sqrt(nv);
+          ++n;
+        }
+      }
+      if (n > 0) sigma_t = std::max(sigma_t, sum / n);
+    }
+    if (!mesh.confidence.empty()) {
+      double sum = 0;
+      for (int k = 0; k < 3; ++k) sum += std::isfinite(mesh.confidence[U(face[k])]) ? mesh.confidence[U(face[k])] : 0;
+      conf = std::clamp(sum / 3, 0.05, 1.0);
+    }
+    for (int k = 0; k < 3; ++k) {
+      h = std::max(h, (mesh.points_in_world[U(face[(k + 1) % 3])] - mesh.points_in_world[U(face[k])]).norm());
+    }
+    const double length = (s.b_in_world - s.a_in_world).norm();
+    const double gradient = std::max(s.gradient_k_per_m, 1e-9);
+    const double sigma_d2 = std::pow(sigma_t / std::sqrt(conf) / gradient, 2) + h * h / 12;
+    const double sigma_peak = std::hypot(sigma_t / std::sqrt(conf), sigma_peak_shape);
+    const double sigma_level = c.options.detect == SpotOptions::Detect::kAbsolute
+                                   ? 0.0
+                                   : std::hypot((1 - f) * sigma_reference, f * sigma_peak);
+    incoherent_area2 += std::pow(length, 2) * sigma_d2;
+    coherent_area += length * sigma_level / gradient;
+    incoherent_d2 += length * sigma_d2;
+    coherent_d += length * sigma_level / gradient;
+    length_sum += length;
+    boundary_std += sigma_t;
+    ++boundary_vertices;
+  }
+  spot->area_sigma_m2 = std::sqrt(incoherent_area2 + coherent_area * coherent_area);
+  const double mean_d2 = length_sum > 0 ? incoherent_d2 / length_sum : 0;
+  const double mean_coherent = length_sum > 0 ? coherent_d / length_sum : 0;
+  // A side's length is set by its two ends: independent errors add in quadrature; a level
+  // shift moves both ends outwards together.
+  spot->length_sigma_m = std::sqrt(2 * mean_d2 + 4 * mean_coherent * mean_coherent);
+  spot->width_sigma_m = spot->length_sigma_m;
+  spot->boundary_std_c = boundary_vertices > 0 ? boundary_std / boundary_vertices : kNaN;
+}
+
+
+// The Spot of a measured region: figures, extent, severity.
+Spot MakeSpot(const Context& c, const Measured& m, bool hot, const std::vector<SeverityBand>& table) {
+  const SpotOptions& options = c.options;
+  Spot spot;
+  spot.hot = hot;
+  spot.reference = options.detect == SpotOptions::Detect::kAbsolute
+                       ? "absolute"
+                       : (options.reference == SpotOptions::Reference::kAmbient ? "ambient" : "surrounding");
+  if (options.detect == SpotOptions::Detect::kAbsolute && m.ring.vertices > 0) spot.reference = "surrounding";
+  FillSpot(c, m, hot ? 1.0 : -1.0, &spot);
+  const Extent extent = MeasureExtent(m.iso, c.mesh, ExtentOptions());
+  spot.length_m = extent.length_m;
+  spot.width_m = extent.width_m;
+  spot.unrolling = extent.unrolling;
+  if (const SeverityBand* band = SeverityFor(table, spot.delta_k)) {
+    spot.severity = band->name;
+    spot.action = band->action;
+  } else {
+    spot.severity = "none";
+  }
+  return spot;
+}
+
+// What every measurement shares: the welded graph, vertex areas, faces around vertices.
+struct Prepared {
+  VertexGraph graph;
+  std::vector<double> vertex_area;
+  std::vector<std::vector<int>> vertex_faces;
+  std::vector<SeverityBand> table;
+
+  Prepared(const ThermalMesh& mesh, const SpotOptions& options)
+      : graph(BuildVertexGraph(mesh)), vertex_area(VertexAreas(mesh)), vertex_faces(U(mesh.NumVertices())),
+        table(options.severity.empty() ? NetaSeverityTable() : options.severity) {
+    for (int f = 0; f < mesh.NumFaces(); ++f) {
+      for (int k = 0; k < 3; ++k) vertex_faces[U(mesh.faces[U(f)][k])].push_back(f);
+    }
+  }
+};
+
+}  // namespace
+
+SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
+  assert(mesh.HasTemperature());
+  assert(options.Check().empty());
+  SpotDetection result;
+  result.field = mesh.temperature_field;
+  const Prepared prepared(mesh, options);
+  const VertexGraph& graph = prepared.graph;
+  const std::vector<double>& vertex_area = prepared.vertex_area;
+  const std::vector<SeverityBand>& table = prepared.table;
+  const std::vector<double> background =
+      options.reference == SpotOptions::Reference::kSurrounding || options.detect == SpotOptions::Detect::kDelta
+          ? LocalBackground(mesh, mesh.temperature_c, vertex_area, options.background_radius_m)
+          : std::vector<double>(U(mesh.NumVertices()), kNaN);
+
+  for (const bool hot : {true, false}) {
+    if ((hot && !options.find_hot) || (!hot && !options.find_cold)) continue;
+    const double sign = hot ? 1.0 : -1.0;
+    std::vector<double> field(mesh.temperature_c.size());
+    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * mesh.temperature_c[v];
+    std::vector<double> oriented_background(background.size());
+    for (size_t v = 0; v < background.size(); ++v) oriented_background[v] = sign * background[v];
+    const double ambient = sign * options.ambient_c;
+    const double absolute_level = sign * (hot ? options.hot_above_c : options.cold_below_c);
+    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces};
+
+    // Candidate vertices and their components.
+    std::vector<char> candidate(field.size(), 0);
+    for (size_t v = 0; v < field.size(); ++v) {
+      if (!std::isfinite(field[v])) continue;
+      if (options.detect == SpotOptions::Detect::kAbsolute) {
+        candidate[v] = field[v] >= absolute_level;
+      } else {
+        const double reference = options.reference == SpotOptions::Reference::kAmbient ? ambient : oriented_background[v];
+        candidate[v] = field[v] - reference >= 0.5 * options.min_delta_k;
+      }
+    }
+    std::vector<std::pair<double, int>> seeds;  // (strength, peak vertex) per component
+    std::vector<char> seen(field.size(), 0);
+    for (size_t start = 0; start < field.size(); ++start) {
+      if (!candidate[start] || seen[start]) continue;
+      int peak = static_cast<int>(start);
+      std::vector<int> stack = {peak};
+      seen[start] = 1;
+      while (!stack.empty()) {
+        const int v = stack.back();
+        stack.pop_back();
+        if (field[U(v)] > field[U(peak)]) peak = v;
+        for (int i = graph.offsets[U(v)]; i < graph.offsets[U(v) + 1]; ++i) {
+          const int w = graph.neighbours[U(i)];
+          if (candidate[U(w)] && !seen[U(w)]) {
+            seen[U(w)] = 1;
+            stack.push_back(w);
+          }
+        }
+      }
+      const double base = std::isfinite(oriented_background[U(peak)]) ? oriented_background[U(peak)] : 0.0;
+      seeds.emplace_back(field[U(peak)] - base, peak);
+    }
+    std::sort(seeds.begin(), seeds.end(), std::greater<>());
+    result.candidates += static_cast<int>(seeds.size());
+
+    std::vector<char> claimed(field.size(), 0), in_region(field.size(), 0);
+    std::vector<Spot> spots;
+    for (const auto& [strength, seed] : seeds) {
+      if (claimed[U(seed)]) continue;
+      Measured m;
+      std::string reason;
+      const double start_reference = std::isfinite(oriented_background[U(seed)]) ? oriented_background[U(seed)] : field[U(seed)] - options.min_delta_k;
+      if (!MeasureCandidate(c, seed, start_reference, ambient, absolute_level, &in_region, &m, &reason)) {
+        result.rejected.push_back({hot, mesh.temperature_c[U(seed)], mesh.points_in_world[U(seed)], reason});
+        continue;
+      }
+      // Regions do not overlap: one reaching an accepted spot's is that spot again (found
+      // from another seed that its level left outside it).
+      bool overlaps = false;
+      for (int v : m.region) overlaps |= claimed[U(v)] != 0;
+      for (int v : m.region) {
+        claimed[U(v)] = 1;
+        in_region[U(v)] = 0;
+      }
+      if (overlaps) continue;
+      Spot spot = MakeSpot(c, m, hot, table);
+      spots.push_back(std::move(spot));
+    }
+    std::sort(spots.begin(), spots.end(),
+              [](const Spot& a, const Spot& b) { return std::abs(a.delta_k) > std::abs(b.delta_k); });
+    for (size_t i = 0; i < spots.size(); ++i) {
+      spots[i].id = (hot ? "H" : "C") + std::to_string(i + 1);
+      result.spots.push_back(std::move(spots[i]));
+    }
+  }
+  return result;
+}
+
+std::vector<std::optional<Spot>> MeasureSpotsAtLevels(const ThermalMesh& mesh,
+                                                      const std::vector<LevelRequest>& requests,
+                                                      const SpotOptions& options) {
+  assert(mesh.HasTemperature());
+  assert(options.Check().empty());
+  const Prepared prepared(mesh, options);
+  std::vector<std::optional<Spot>> out;
+  for (const LevelRequest& request : requests) {
+    const double sign = request.hot ? 1.0 : -1.0;
+    SpotOptions o = options;
+    o.detect = SpotOptions::Detect::kAbsolute;
+    o.hot_above_c = request.hot ? request.level_c : request.level_c + 1;
+    o.cold_below_c = request.hot ? request.level_c - 1 : request.level_c;
+    std::vector<double> field(mesh.temperature_c.size());
+    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * mesh.temperature_c[v];
+    // The seed: the vertex nearest the given point among those beyond the level.
+    int seed = -1;
+    double best = 0;
+    for (int v = 0; v < mesh.NumVertices(); ++v) {
+      if (!(field[U(v)] >= sign * request.level_c)) continue;
+      const double d = (mesh.points_in_world[U(v)] - request.seed_in_world).squaredNorm();
+      if (seed < 0 || d < best) {
+        seed = v;
+        best = d;
+      }
+    }
+    if (seed < 0) {
+      out.emplace_back();
+      continue;
+    }
+    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces};
+    std::vector<char> in_region(field.size(), 0);
+    Measured m;
+    std::string reason;
+    if (!MeasureCandidate(c, seed, field[U(seed)], kNaN, sign * request.level_c, &in_region, &m, &reason)) {
+      out.emplace_back();
+      continue;
+    }
+    out.emplace_back(MakeSpot(c, m, request.hot, prepared.table));
+  }
+  return out;
+}
+
+}  // namespace hw::analyze

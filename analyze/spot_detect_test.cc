@@ -1,0 +1,198 @@
+#include "analyze/spot_detect.h"
+
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace hw::analyze {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A square plane z = 0 of side `size_m` centred on the origin, triangulated on a grid of
+// `step_m` with alternating diagonals, carrying temperature(x, y).
+ThermalMesh Plane(double size_m, double step_m, const std::function<double(double, double)>& temperature) {
+  const int n = static_cast<int>(std::lround(size_m / step_m));
+  core::PlyMesh ply;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> t;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = -0.5 * size_m + i * step_m, y = -0.5 * size_m + j * step_m;
+      points.emplace_back(x, y, 0);
+      t.push_back(temperature(x, y));
+    }
+  }
+  ply.SetPositions(points, core::PlyType::kFloat64);
+  ply.AddProperty("temperature_c", core::PlyType::kFloat64, t);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
+      if ((i + j) % 2 == 0) {
+        ply.faces.emplace_back(a, b, c);
+        ply.faces.emplace_back(a, c, d);
+      } else {
+        ply.faces.emplace_back(a, b, d);
+        ply.faces.emplace_back(b, c, d);
+      }
+    }
+  }
+  return MakeThermalMesh(ply, "plane.ply");
+}
+
+// The fixtures' plateau profile (fixtures/scene.h): T = threshold on the boundary of the
+// region (signed distance d), rising to peak inside and decaying to background outside.
+double Plateau(double d, double background_c, double peak_c, double falloff_m) {
+  const double threshold = 0.5 * (background_c + peak_c);
+  const double a = (threshold - background_c) / (peak_c - background_c);
+  const double g = d <= 0 ? 1 - (1 - a) * std::exp(d / falloff_m) : a * std::exp(-d / falloff_m);
+  return background_c + (peak_c - background_c) * g;
+}
+
+TEST(SpotDetectTest, DiscOnAPlaneHasItsClosedForms) {
+  const double radius = 0.1;
+  const ThermalMesh mesh = Plane(1.6, 0.005, [&](double x, double y) {
+    return Plateau(std::hypot(x - 0.1, y + 0.05) - radius, 20, 60, 0.01);
+  });
+  const SpotDetection d = DetectSpots(mesh, SpotOptions());
+  ASSERT_EQ(d.spots.size(), 1u);
+  const Spot& s = d.spots[0];
+  EXPECT_EQ(s.id, "H1");
+  EXPECT_TRUE(s.hot);
+  EXPECT_EQ(s.reference, "surrounding");
+  // The ring starts 4 tail lengths (4 cm) beyond the edge: the tail there is 20·e^-4 =
+  // 0.37 K and the median sits ~2 cm further (width 10 cm): < 0.1 K.
+  EXPECT_NEAR(s.reference_c, 20, 0.1);
+  EXPECT_NEAR(s.peak_c, Plateau(-radius, 20, 60, 0.01), 1e-9);  // the deepest vertex (centre)
+  // The level is half-way between reference and the robust peak: within 0.1 K of 40, i.e.
+  // the boundary moves < 0.1 K / (20 K / 1 cm) = 0.05 mm, 0.1 % of the area. Chords of a 5 mm
+  // mesh on a 10 cm circle lose < (5 mm)² / (8·10 cm)·2πr/πr² ... < 0.5 %.
+  EXPECT_NEAR(s.area_m2, kPi * radius * radius, 0.01 * kPi * radius * radius);
+  EXPECT_NEAR(s.length_m, 2 * radius, 0.002);
+  EXPECT_NEAR(s.width_m, 2 * radius, 0.002);
+  EXPECT_NEAR(s.centroid_in_world.x(), 0.1, 1e-3);
+  EXPECT_NEAR(s.centroid_in_world.y(), -0.05, 1e-3);
+  EXPECT_LE(std::abs(s.area_m2 - kPi * radius * radius), 2 * s.area_sigma_m2);
+  EXPECT_EQ(s.severity, "major");  // ΔT ≈ 40 K > 15 K
+  EXPECT_EQ(s.unrolling, "plane");
+}
+
+TEST(SpotDetectTest, HotAndColdSpotsAreOrderedAndNamed) {
+  const ThermalMesh mesh = Plane(2.0, 0.01, [&](double x, double y) {
+    const double hot1 = Plateau(std::hypot(x + 0.5, y) - 0.08, 20, 30, 0.01) - 20;
+    const double hot2 = Plateau(std::hypot(x - 0.5, y) - 0.08, 20, 50, 0.01) - 20;
+    // A cold rectangle 0.3 × 0.1 m: signed distance of a box.
+    const double qx = std::abs(x) - 0.15, qy = std::abs(y - 0.6) - 0.05;
+    const double box = std::hypot(std::max(qx, 0.0), std::max(qy, 0.0)) + std::min(std::max(qx, qy), 0.0);
+    const double cold = Plateau(box, 20, 14, 0.01) - 20;
+    return 20 + hot1 + hot2 + cold;
+  });
+  const SpotDetection d = DetectSpots(mesh, SpotOptions());
+  ASSERT_EQ(d.spots.size(), 3u);
+  EXPECT_EQ(d.spots[0].id, "H1");
+  EXPECT_NEAR(d.spots[0].peak_c, 50, 0.5);  // the stronger hot spot first
+  EXPECT_EQ(d.spots[1].id, "H2");
+  EXPECT_NEAR(d.spots[1].centroid_in_world.x(), -0.5, 1e-3);
+  EXPECT_EQ(d.spots[2].id, "C1");
+  EXPECT_FALSE(d.spots[2].hot);
+  EXPECT_LT(d.spots[2].delta_k, -5);
+  EXPECT_NEAR(d.spots[2].area_m2, 0.03, 0.03 * 0.01);  // a rectangle on grid lines: exact up to the level
+  EXPECT_NEAR(d.spots[2].length_m, 0.3, 0.002);
+  EXPECT_NEAR(d.spots[2].width_m, 0.1, 0.002);
+  EXPECT_EQ(d.spots[1].severity, "probable");  // ΔT ≈ 10 K
+  EXPECT_EQ(d.spots[0].severity, "major");
+}
+
+TEST(SpotDetectTest, NoiseIsCoveredByTheReportedUncertainty) {
+  // 0.5 K of vertex noise on a 5 mm mesh: the reported one-sigma area uncertainty must cover
+  // the error in about 95 % of trials at 2σ. Over 20 seeds allow 3 misses (binomial tail).
+  int covered = 0, trials = 20;
+  for (int seed = 0; seed < trials; ++seed) {
+    std::mt19937 rng(static_cast<unsigned>(seed));
+    std::normal_distribution<double> noise(0, 0.5);
+    const double radius = 0.06;
+    const ThermalMesh mesh = Plane(0.8, 0.005, [&](double x, double y) {
+      return Plateau(std::hypot(x, y) - radius, 20, 30, 0.008) + noise(rng);
+    });
+    const SpotDetection d = DetectSpots(mesh, SpotOptions());
+    ASSERT_GE(d.spots.size(), 1u);
+    const Spot& s = d.spots[0];
+    const double error = s.area_m2 - kPi * radius * radius;
+    covered += std::abs(error) <= 2 * s.area_sigma_m2;
+    EXPECT_LT(std::abs(error) / (kPi * radius * radius), 0.1);
+  }
+  EXPECT_GE(covered, trials - 3);
+}
+
+TEST(SpotDetectTest, AWholeWarmSurfaceIsNotASpot) {
+  // Half of the plane 8 K warmer: wider than max_area_m2 — a surface at another
+  // temperature, rejected with its reason.
+  SpotOptions options;
+  options.max_area_m2 = 0.5;
+  const ThermalMesh mesh = Plane(2.0, 0.02, [&](double x, double) { return x > 0 ? 28.0 : 20.0; });
+  const SpotDetection d = DetectSpots(mesh, options);
+  EXPECT_TRUE(d.spots.empty());
+  ASSERT_FALSE(d.rejected.empty());
+  EXPECT_NE(d.rejected[0].reason.find("max_area_m2"), std::string::npos);
+}
+
+TEST(SpotDetectTest, AbsoluteAndAmbientModes) {
+  const ThermalMesh mesh = Plane(1.0, 0.005, [&](double x, double y) {
+    return Plateau(std::hypot(x, y) - 0.1, 20, 60, 0.01);
+  });
+  SpotOptions absolute;
+  absolute.detect = SpotOptions::Detect::kAbsolute;
+  absolute.hot_above_c = 50;
+  absolute.find_cold = false;
+  const SpotDetection a = DetectSpots(mesh, absolute);
+  ASSERT_EQ(a.spots.size(), 1u);
+  EXPECT_EQ(a.spots[0].reference, "surrounding");  // the limit bounds it; ΔT is over the surface
+  EXPECT_DOUBLE_EQ(a.spots[0].level_c, 50);
+  // T = 50 where 1 - 0.5·e^(d/1cm) = 0.75: d = 1 cm·ln 0.5 = −6.93 mm.
+  const double r50 = 0.1 + 0.01 * std::log(0.5);
+  EXPECT_NEAR(a.spots[0].area_m2, kPi * r50 * r50, 0.01 * kPi * r50 * r50);
+
+  SpotOptions ambient;
+  ambient.reference = SpotOptions::Reference::kAmbient;
+  ambient.ambient_c = 10;  // level = 10 + (60 − 10)/2 = 35 °C, outside the true boundary
+  const SpotDetection b = DetectSpots(mesh, ambient);
+  ASSERT_EQ(b.spots.size(), 1u);
+  EXPECT_EQ(b.spots[0].reference, "ambient");
+  EXPECT_NEAR(b.spots[0].reference_c, 10, 1e-12);
+  // T = 35 outside: 0.5·e^(−d/1cm)·40 = 15 → d = 1 cm·ln(20/15).
+  const double r35 = 0.1 + 0.01 * std::log(20.0 / 15.0);
+  EXPECT_NEAR(b.spots[0].area_m2, kPi * r35 * r35, 0.01 * kPi * r35 * r35);
+}
+
+TEST(SpotDetectTest, UnobservedSurfaceIsNeverASpot) {
+  // A NaN hole in the middle of a uniform plane: no spot, no crash.
+  const ThermalMesh mesh = Plane(1.0, 0.01, [&](double x, double y) {
+    return std::hypot(x, y) < 0.1 ? std::nan("") : 20.0;
+  });
+  EXPECT_TRUE(DetectSpots(mesh, SpotOptions()).spots.empty());
+}
+
+TEST(SpotDetectTest, OptionsAndSeverityChecks) {
+  SpotOptions o;
+  EXPECT_EQ(o.Check(), "");
+  o.reference = SpotOptions::Reference::kAmbient;
+  EXPECT_NE(o.Check().find("ambient_c"), std::string::npos);
+  o = SpotOptions();
+  o.detect = SpotOptions::Detect::kAbsolute;
+  o.hot_above_c = 10;
+  o.cold_below_c = 30;
+  EXPECT_NE(o.Check().find("inverted"), std::string::npos);
+  o = SpotOptions();
+  o.severity = {{5, "b", ""}, {1, "a", ""}};
+  EXPECT_NE(o.Check().find("severity[1].min_delta_k"), std::string::npos);
+  const std::vector<SeverityBand> neta = NetaSeverityTable();
+  EXPECT_EQ(SeverityFor(neta, 0.5), nullptr);
+  EXPECT_EQ(SeverityFor(neta, 3.9)->name, "possible");
+  EXPECT_EQ(SeverityFor(neta, -10)->name, "probable");
+  EXPECT_EQ(SeverityFor(neta, 16)->name, "major");
+}
+
+}  // namespace
+}  // namespace hw::analyze

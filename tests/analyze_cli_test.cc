@@ -1,0 +1,168 @@
+// End-to-end tests of `heatwave analyze`: spots, images and analyze.json from a PLY, and what
+// bad meshes, configs and options do.
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/atomic_file.h"
+#include "core/ply.h"
+#include "tests/support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::test::TestFolder;
+using Result = hw::test::CommandResult;
+
+Result Heatwave(const std::string& args) {
+  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+}
+
+// A 1 m plate (z = 0, seen from +z) at 20 °C, 1 cm grid, with a 20 cm hot disc at 50 °C
+// (a smooth 1 cm edge) and red colour on its left half.
+hw::core::PlyMesh Plate(bool with_temperature = true) {
+  const int n = 100;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> t;
+  std::vector<hw::core::Rgb8> colours;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = -0.5 + 0.01 * i, y = -0.5 + 0.01 * j;
+      points.emplace_back(x, y, 0);
+      const double d = std::hypot(x, y) - 0.1;
+      t.push_back(20 + 30 / (1 + std::exp(d / 0.004)));
+      colours.emplace_back(x < 0 ? 200 : 90, 90, 90);
+    }
+  }
+  hw::core::PlyMesh ply;
+  ply.SetPositions(points);
+  if (with_temperature) ply.AddProperty("temperature_c", hw::core::PlyType::kFloat32, t);
+  ply.SetColors(colours);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i;
+      ply.faces.emplace_back(a, a + 1, a + n + 2);
+      ply.faces.emplace_back(a, a + n + 2, a + n + 1);
+    }
+  }
+  return ply;
+}
+
+// Small images so the test stays fast.
+const std::string kConfig =
+    "version: 1\n"
+    "images:\n"
+    "  width: 160\n"
+    "  height: 120\n"
+    "  samples_per_pixel: 1\n"
+    "  overviews: 1\n";
+
+fs::path Write(const fs::path& folder, const std::string& name, const std::string& text) {
+  hw::core::WriteFileAtomically(folder / name, text);
+  return folder / name;
+}
+
+TEST(AnalyzeCliTest, MeasuresTheDiscAndWritesImagesAndJson) {
+  const fs::path dir = TestFolder();
+  hw::core::WritePly(dir / "plate.ply", Plate());
+  const fs::path config = Write(dir, "analyze.yaml", kConfig);
+  const Result r = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + (dir / "out").string() +
+                            " --config " + config.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("spots: 1"), std::string::npos) << r.output;
+  const std::string json = hw::core::ReadFile(dir / "out" / "analyze.json", 1 << 24);
+  EXPECT_NE(json.find("\"id\": \"H1\""), std::string::npos);
+  EXPECT_NE(json.find("\"severity\": \"major\""), std::string::npos);
+  // One overview + top + the close-up, four modes each; one float image per view.
+  for (const std::string view : {"overview-1", "top", "H1"}) {
+    for (const std::string mode : {"thermal", "colour", "ih", "highlight"}) {
+      EXPECT_TRUE(fs::exists(dir / "out" / "images" / (view + "-" + mode + ".png"))) << view << " " << mode;
+    }
+    EXPECT_TRUE(fs::exists(dir / "out" / "images" / (view + "-temperature_c.exr"))) << view;
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / ".heatwave-run"));
+
+  // A second run into the same folder needs --overwrite (usage error otherwise).
+  const Result again = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + (dir / "out").string() +
+                                " --config " + config.string() + " -q");
+  EXPECT_EQ(again.exit_code, 2) << again.output;
+  EXPECT_NE(again.output.find("--overwrite"), std::string::npos);
+}
+
+TEST(AnalyzeCliTest, WithoutTemperatureItRendersColourAndSaysSo) {
+  const fs::path dir = TestFolder();
+  hw::core::WritePly(dir / "plate.ply", Plate(false));
+  const fs::path config = Write(dir, "analyze.yaml", kConfig);
+  const Result r = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + (dir / "out").string() +
+                            " --config " + config.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no temperature_c"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "out" / "images" / "overview-1-colour.png"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "images" / "overview-1-thermal.png"));
+  const std::string json = hw::core::ReadFile(dir / "out" / "analyze.json", 1 << 24);
+  EXPECT_NE(json.find("\"has_temperature\": false"), std::string::npos);
+}
+
+TEST(AnalyzeCliTest, BadMeshesAreOneLineErrorsOrWarnings) {
+  const fs::path dir = TestFolder();
+  hw::core::PlyMesh cloud;
+  cloud.SetPositions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  hw::core::WritePly(dir / "cloud.ply", cloud);
+  Result r = Heatwave("analyze " + (dir / "cloud.ply").string() + " --out " + (dir / "o1").string() + " -q");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+  EXPECT_NE(r.output.find("cloud.ply: no triangles"), std::string::npos) << r.output;
+
+  // NaN positions and temperatures, a degenerate triangle: warnings, still a result.
+  hw::core::PlyMesh plate = Plate();
+  plate.Get("x").values[5] = std::nan("");
+  plate.Get("temperature_c").values[7] = INFINITY;
+  plate.faces.emplace_back(0, 0, 1);
+  hw::core::WritePly(dir / "bad.ply", plate);
+  const fs::path config = Write(dir, "analyze.yaml", kConfig);
+  r = Heatwave("analyze " + (dir / "bad.ply").string() + " --out " + (dir / "o2").string() + " --config " +
+               config.string() + " --no-images");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("non-finite x y z dropped"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("degenerate triangles"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("infinite temperature_c"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("spots: 1"), std::string::npos) << r.output;
+
+  r = Heatwave("analyze " + (dir / "missing.ply").string() + " --out " + (dir / "o3").string() + " -q");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+}
+
+TEST(AnalyzeCliTest, BadConfigsNameKeyAndLine) {
+  const fs::path dir = TestFolder();
+  hw::core::WritePly(dir / "plate.ply", Plate());
+  struct Case {
+    std::string yaml, expected;
+  };
+  const Case cases[] = {
+      {"version: 1\nspots:\n  min_delta: 2\n", "unknown key 'min_delta' (line 3)"},
+      {"version: 1\nimages:\n  highlight_band_c: [30, 20]\n", "inverted band"},
+      {"version: 1\nimages:\n  span_c: [30, 20]\n", "inverted span"},
+      {"version: 1\nspots:\n  reference: ambient\n", "ambient_c"},
+      {"version: 1\nseverity:\n  - {name: a, min_delta_k: 5}\n  - {name: b, min_delta_k: 1}\n", "severity[1].min_delta_k"},
+      {"version: 1\nimages:\n  palette: jet\n", "images.palette"},
+      {"version: 2\n", "version"},
+  };
+  int i = 0;
+  for (const Case& c : cases) {
+    const fs::path config = Write(dir, "c" + std::to_string(i) + ".yaml", c.yaml);
+    const Result r = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " +
+                              (dir / ("o" + std::to_string(i++))).string() + " --config " + config.string() + " -q");
+    EXPECT_EQ(r.exit_code, 1) << c.yaml << r.output;
+    EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << c.yaml << " → " << r.output;
+    EXPECT_NE(r.output.find(config.filename().string()), std::string::npos) << r.output;
+  }
+  const Result usage = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + (dir / "u").string() +
+                                " --truth-observed-only -q");
+  EXPECT_EQ(usage.exit_code, 2) << usage.output;
+}
+
+}  // namespace
