@@ -15,8 +15,10 @@
 //     kinds: [hot, cold]
 //     boundary_fraction: 0.5
 //     min_area_m2: 0.0001
-//     max_area_m2: 2
+//     max_area_m2: 1
 //     background_radius_m: 0.3
+//     min_contrast_sigmas: 4        # |ΔT| >= 4 × the surroundings' spread
+//     min_views: 3                  # reconstruct's meshes: seen in >= 3 thermal frames
 //   severity:                       # replaces the NETA table
 //     - {name: minor, min_delta_k: 1, action: "Monitor"}
 //     - {name: serious, min_delta_k: 10, action: "Repair"}

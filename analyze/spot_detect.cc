@@ -327,6 +327,10 @@ std::string SpotOptions::Check() const {
   if (!core::InRange(min_ring_coverage, 0, 1)) {
     return core::OptionFail("min_ring_coverage", min_ring_coverage, "in [0, 1]");
   }
+  if (!core::InRange(min_contrast_sigmas, 0, 100)) {
+    return core::OptionFail("min_contrast_sigmas", min_contrast_sigmas, "in [0, 100]");
+  }
+  if (!core::InRange(min_views, 0, 1e6)) return core::OptionFail("min_views", min_views, "in [0, 1e6]");
   if (!severity.empty()) return CheckSeverityTable(severity);
   return "";
 }
@@ -412,10 +416,23 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     if (std::abs(m->ring.reference - reference) < 1e-3 && std::abs(next_level - level) < 1e-3) break;
     reference = m->ring.reference;
   }
+  double views = 0, area = 0;
+  if (!c.mesh.views.empty()) {
+    for (int v : m->region) {
+      if (!std::isfinite(c.mesh.views[U(v)])) continue;
+      views += c.vertex_area[U(v)] * c.mesh.views[U(v)];
+      area += c.vertex_area[U(v)];
+    }
+  }
+  const double spread = std::isfinite(m->ring.spread) ? m->ring.spread : 0.0;
   if (!absolute && !(std::abs(m->peak - m->reference) >= o.min_delta_k)) {
     *reason = "ΔT to the reference below min_delta_k";
+  } else if (!absolute && !(std::abs(m->peak - m->reference) >= o.min_contrast_sigmas * spread)) {
+    *reason = "ΔT below min_contrast_sigmas × the surroundings' spread (" + core::RoundedNumber(spread) + " K)";
   } else if (m->iso.area_m2 < o.min_area_m2) {
     *reason = "area below min_area_m2";
+  } else if (area > 0 && views / area < o.min_views) {
+    *reason = "seen in fewer than min_views thermal frames (" + core::RoundedNumber(views / area) + ")";
   } else {
     return true;
   }

@@ -103,6 +103,15 @@ struct SpotOptions {
   // pipe-to-flange corners (90°) stop it; a 5 mm reconstruction's normal noise (a few
   // degrees) and a pipe's curvature over the ring's width (< 40° for r >= 7 cm) do not.
   double ring_max_normal_change_deg = 45;
+  // A spot must stand out of its surroundings' own variability: |ΔT| >= this many times the
+  // ring's robust spread (1.4826·MAD), >= 0. 4: a speckle of fusion noise or texture rarely
+  // reaches 4σ; a defect of a few kelvin on a uniform surface does easily.
+  double min_contrast_sigmas = 4;
+  // Meshes from reconstruct (temperature_views): a spot seen in fewer thermal frames than
+  // this, on the area-weighted mean, is unconfirmed and rejected, >= 0. 3: one or two frames
+  // can be a reflection, a misregistered edge or a frame at the wrong time; the point of a
+  // 3D model is that a defect is seen from several viewpoints.
+  double min_views = 3;
   // Severity table; empty = NetaSeverityTable().
   std::vector<SeverityBand> severity;
 
