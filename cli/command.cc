@@ -15,6 +15,7 @@ const std::vector<Command>& Commands() {
       {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
       {"reconstruct", RunReconstruct, "track the depth stream and fuse a coloured 3D model"},
       {"analyze", RunAnalyze, "find and measure hot and cold spots on a model; render it in the four modes"},
+      {"compare", RunCompare, "align two models of one asset and map the temperature change; list spot changes"},
       {"eval-trajectory", RunEvalTrajectory,
        "ATE and RPE of a TUM trajectory against a ground truth"},
   };

@@ -69,6 +69,7 @@ int RunScanInfo(int argc, char** argv);
 int RunSynth(int argc, char** argv);
 int RunReconstruct(int argc, char** argv);
 int RunAnalyze(int argc, char** argv);
+int RunCompare(int argc, char** argv);
 int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli
