@@ -442,6 +442,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
                              .str());
     }
     root.Int("candidates", r.detection->candidates);
+    root.Int("candidates_unmeasured", r.detection->unmeasured);
   }
   root.Add("spots", core::JsonArray(spots, "  "));
   root.Add("rejected", core::JsonArray(rejected, "  "));
@@ -524,7 +525,10 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
       << Fixed(r.temperature_min_c, 1) << " … " << Fixed(r.temperature_max_c, 1) << " °C, median "
       << Fixed(r.temperature_median_c, 1) << ")\n";
     s << "  spots: " << r.detection->spots.size() << " (" << r.detection->candidates << " candidates, "
-      << r.detection->rejected.size() << " rejected) on " << r.detection->field << "\n";
+      << r.detection->rejected.size() << " measured and rejected) on " << r.detection->field << "\n";
+    if (r.detection->unmeasured > 0) {
+      s << "  warning: " << r.detection->unmeasured << " weaker candidates not measured (spots.max_candidates)\n";
+    }
     s << "  id    peak °C  ref °C    ΔT K   area cm²        length cm      width cm   severity\n";
     int shown = 0;
     for (const Spot& x : r.detection->spots) {

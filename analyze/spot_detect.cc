@@ -122,6 +122,10 @@ struct Context {
   const std::vector<double>& vertex_area;
   const SpotOptions& options;
   const std::vector<std::vector<int>>& vertex_faces;
+  // Scratch for the ring's search, one slot per vertex (infinite = unvisited), reset after
+  // each search: thousands of candidates on a million-vertex model must not each allocate.
+  std::vector<double>* ring_distance;
+  std::vector<int>* ring_source;
 };
 
 // The connected set of vertices with field >= level containing `seed`, stopping (returns
@@ -189,15 +193,15 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, double region
   const double width = std::max(c.options.ring_width_m, r);
   const double stop = gap + width;
   const double min_cos = std::cos(c.options.ring_max_normal_change_deg * kPi / 180);
-  struct Visit {
-    double distance;
-    int source;
-  };
-  std::unordered_map<int, Visit> visits;
+  std::vector<double>& distance = *c.ring_distance;
+  std::vector<int>& source = *c.ring_source;
+  std::vector<int> touched;
   using Item = std::pair<double, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (int v : region) {
-    visits[v] = {0, v};
+    distance[U(v)] = 0;
+    source[U(v)] = v;
+    touched.push_back(v);
     queue.emplace(0.0, v);
   }
   std::vector<std::pair<double, double>> samples;
@@ -205,24 +209,24 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, double region
   while (!queue.empty()) {
     const auto [d, v] = queue.top();
     queue.pop();
-    const Visit visit = visits[v];
-    if (d > visit.distance) continue;
+    if (d > distance[U(v)]) continue;
     if (d >= gap && std::isfinite(c.field[U(v)])) {
       samples.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
       ring.area_m2 += c.vertex_area[U(v)];
     }
-    const Eigen::Vector3d& source_normal = c.mesh.normals[U(visit.source)];
+    const Eigen::Vector3d& source_normal = c.mesh.normals[U(source[U(v)])];
     for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
       const int w = c.graph.neighbours[U(i)];
       const double dw = d + (c.mesh.points_in_world[U(w)] - c.mesh.points_in_world[U(v)]).norm();
-      if (dw > stop) continue;
+      if (dw > stop || distance[U(w)] <= dw) continue;
       if (c.mesh.normals[U(w)].dot(source_normal) < min_cos) continue;
-      const auto it = visits.find(w);
-      if (it != visits.end() && it->second.distance <= dw) continue;
-      visits[w] = {dw, visit.source};
+      if (std::isinf(distance[U(w)])) touched.push_back(w);
+      distance[U(w)] = dw;
+      source[U(w)] = source[U(v)];
       queue.emplace(dw, w);
     }
   }
+  for (int v : touched) distance[U(v)] = std::numeric_limits<double>::infinity();
   ring.vertices = static_cast<int>(samples.size());
   // A region whose outline runs along mesh borders (a pane meshed on its own) has no
   // iso-line there: its perimeter is at least that of the disc of its area.
@@ -331,6 +335,7 @@ std::string SpotOptions::Check() const {
     return core::OptionFail("min_contrast_sigmas", min_contrast_sigmas, "in [0, 100]");
   }
   if (!core::InRange(min_views, 0, 1e6)) return core::OptionFail("min_views", min_views, "in [0, 1e6]");
+  if (max_candidates < 1) return core::OptionFail("max_candidates", max_candidates, ">= 1");
   if (!severity.empty()) return CheckSeverityTable(severity);
   return "";
 }
@@ -610,7 +615,9 @@ SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
     for (size_t v = 0; v < background.size(); ++v) oriented_background[v] = sign * background[v];
     const double ambient = sign * options.ambient_c;
     const double absolute_level = sign * (hot ? options.hot_above_c : options.cold_below_c);
-    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces};
+    std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
+    std::vector<int> ring_source(field.size(), -1);
+    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces, &ring_distance, &ring_source};
 
     // Candidate vertices and their components.
     std::vector<char> candidate(field.size(), 0);
@@ -623,17 +630,29 @@ SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
         candidate[v] = field[v] - reference >= 0.5 * options.min_delta_k;
       }
     }
-    std::vector<std::pair<double, int>> seeds;  // (strength, peak vertex) per component
+    // One seed per component: its peak, its strength against the most background-like local
+    // background over the component (inside a spot wider than background_radius_m the
+    // background at the peak is the spot's own temperature; at the component's rim it is
+    // not), and as the first reference the background at the peak (the nearest guess; the
+    // surrounding ring then moves it).
+    struct Seed {
+      double strength;  // peak − reference, oriented
+      int peak;
+      double reference;
+    };
+    std::vector<Seed> seeds;
     std::vector<char> seen(field.size(), 0);
     for (size_t start = 0; start < field.size(); ++start) {
       if (!candidate[start] || seen[start]) continue;
       int peak = static_cast<int>(start);
+      double reference = std::numeric_limits<double>::infinity();
       std::vector<int> stack = {peak};
       seen[start] = 1;
       while (!stack.empty()) {
         const int v = stack.back();
         stack.pop_back();
         if (field[U(v)] > field[U(peak)]) peak = v;
+        if (std::isfinite(oriented_background[U(v)])) reference = std::min(reference, oriented_background[U(v)]);
         for (int i = graph.offsets[U(v)]; i < graph.offsets[U(v) + 1]; ++i) {
           const int w = graph.neighbours[U(i)];
           if (candidate[U(w)] && !seen[U(w)]) {
@@ -642,21 +661,34 @@ SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
           }
         }
       }
-      const double base = std::isfinite(oriented_background[U(peak)]) ? oriented_background[U(peak)] : 0.0;
-      seeds.emplace_back(field[U(peak)] - base, peak);
+      if (options.reference == SpotOptions::Reference::kAmbient) reference = ambient;
+      if (!std::isfinite(reference)) reference = field[U(peak)] - options.min_delta_k;
+      const double first_reference = options.reference == SpotOptions::Reference::kAmbient ? ambient
+                           : std::isfinite(oriented_background[U(peak)]) ? oriented_background[U(peak)]
+                                                                          : reference;
+      seeds.push_back({field[U(peak)] - reference, peak, first_reference});
     }
-    std::sort(seeds.begin(), seeds.end(), std::greater<>());
+    std::sort(seeds.begin(), seeds.end(), [](const Seed& a, const Seed& b) { return a.strength > b.strength; });
     result.candidates += static_cast<int>(seeds.size());
 
     std::vector<char> claimed(field.size(), 0), in_region(field.size(), 0);
     std::vector<Spot> spots;
-    for (const auto& [strength, seed] : seeds) {
-      if (claimed[U(seed)]) continue;
+    int measured = 0;
+    for (const Seed& seed : seeds) {
+      // A candidate that does not stand min_delta_k out of even its most favourable local
+      // background is noise or texture: not measured (thousands of them on a noisy model
+      // would each flood the surface around them), counted in `candidates` only.
+      if (options.detect == SpotOptions::Detect::kDelta && seed.strength < options.min_delta_k) continue;
+      if (claimed[U(seed.peak)]) continue;
+      if (measured == options.max_candidates) {
+        ++result.unmeasured;
+        continue;
+      }
+      ++measured;
       Measured m;
       std::string reason;
-      const double start_reference = std::isfinite(oriented_background[U(seed)]) ? oriented_background[U(seed)] : field[U(seed)] - options.min_delta_k;
-      if (!MeasureCandidate(c, seed, start_reference, ambient, absolute_level, &in_region, &m, &reason)) {
-        result.rejected.push_back({hot, mesh.temperature_c[U(seed)], mesh.points_in_world[U(seed)], reason});
+      if (!MeasureCandidate(c, seed.peak, seed.reference, ambient, absolute_level, &in_region, &m, &reason)) {
+        result.rejected.push_back({hot, mesh.temperature_c[U(seed.peak)], mesh.points_in_world[U(seed.peak)], reason});
         continue;
       }
       // Regions do not overlap: one reaching an accepted spot's is that spot again (found
@@ -711,7 +743,9 @@ std::vector<std::optional<Spot>> MeasureSpotsAtLevels(const ThermalMesh& mesh,
       out.emplace_back();
       continue;
     }
-    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces};
+    std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
+    std::vector<int> ring_source(field.size(), -1);
+    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces, &ring_distance, &ring_source};
     std::vector<char> in_region(field.size(), 0);
     Measured m;
     std::string reason;

@@ -112,6 +112,10 @@ struct SpotOptions {
   // can be a reflection, a misregistered edge or a frame at the wrong time; the point of a
   // 3D model is that a defect is seen from several viewpoints.
   double min_views = 3;
+  // Candidates measured at most, strongest first, >= 1: a bound on the time a very noisy
+  // model can take (each weak candidate may flood up to max_area_m2 of surface). The count
+  // left unmeasured is reported.
+  int max_candidates = 5000;
   // Severity table; empty = NetaSeverityTable().
   std::vector<SeverityBand> severity;
 
@@ -128,8 +132,11 @@ struct RejectedCandidate {
 
 struct SpotDetection {
   std::vector<Spot> spots;          // hot spots H1.. then cold C1.., each by decreasing |ΔT|
+  // Candidates measured and rejected, with the reason. Candidates whose peak does not stand
+  // min_delta_k out of their local background are not measured and not listed.
   std::vector<RejectedCandidate> rejected;
-  int candidates = 0;
+  int candidates = 0;  // connected components of candidate vertices
+  int unmeasured = 0;  // strong enough but beyond max_candidates
   std::string field;                // the per-vertex field measured
 };
 

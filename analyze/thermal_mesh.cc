@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <map>
+#include <unordered_map>
 #include <cmath>
 #include <numeric>
 #include <string>
@@ -36,18 +36,25 @@ std::vector<double> OptionalField(const core::PlyMesh& ply, const char* name,
 // so regions grow across such seams as across welded ones.
 void StitchTJunctions(const ThermalMesh& mesh, const std::vector<int>& rep, double weld_tolerance_m,
                       std::vector<std::pair<int, int>>* edges) {
-  // Border edges: used by one face once coincident vertices are joined.
-  std::map<std::pair<int, int>, int> uses;
+  // Border edges: used by one face once coincident vertices are joined (counted by sorting
+  // packed keys: a map of 15 million edges would take seconds).
+  std::vector<std::uint64_t> keys;
+  keys.reserve(mesh.faces.size() * 3);
   for (const Eigen::Vector3i& f : mesh.faces) {
     for (int k = 0; k < 3; ++k) {
-      int a = rep[static_cast<size_t>(f[k])], b = rep[static_cast<size_t>(f[(k + 1) % 3])];
+      auto a = static_cast<std::uint64_t>(rep[static_cast<size_t>(f[k])]);
+      auto b = static_cast<std::uint64_t>(rep[static_cast<size_t>(f[(k + 1) % 3])]);
       if (a > b) std::swap(a, b);
-      ++uses[{a, b}];
+      keys.push_back(a << 32 | b);
     }
   }
+  std::sort(keys.begin(), keys.end());
   std::vector<std::pair<int, int>> border;
-  for (const auto& [edge, count] : uses) {
-    if (count == 1) border.push_back(edge);
+  for (size_t i = 0; i < keys.size();) {
+    size_t j = i;
+    while (j < keys.size() && keys[j] == keys[i]) ++j;
+    if (j - i == 1) border.emplace_back(static_cast<int>(keys[i] >> 32), static_cast<int>(keys[i] & 0xffffffffu));
+    i = j;
   }
   if (border.empty()) return;
   // A T-junction's vertex is off the other side's edge by the rounding of float32 positions
@@ -59,7 +66,12 @@ void StitchTJunctions(const ThermalMesh& mesh, const std::vector<int>& rep, doub
                                        static_cast<std::int64_t>(std::floor(y / cell)),
                                        static_cast<std::int64_t>(std::floor(z / cell))};
   };
-  std::map<std::array<std::int64_t, 3>, std::vector<int>> grid;
+  struct CellHash {
+    size_t operator()(const std::array<std::int64_t, 3>& k) const {
+      return static_cast<size_t>(k[0] * 73856093 ^ k[1] * 19349663 ^ k[2] * 83492791);
+    }
+  };
+  std::unordered_map<std::array<std::int64_t, 3>, std::vector<int>, CellHash> grid;
   for (size_t e = 0; e < border.size(); ++e) {
     const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(border[e].first)];
     const Eigen::Vector3d& b = mesh.points_in_world[static_cast<size_t>(border[e].second)];
@@ -232,42 +244,28 @@ ThermalMesh ReadThermalMesh(const std::filesystem::path& path, const std::string
 }
 
 std::vector<int> WeldMap(const std::vector<Eigen::Vector3d>& points_in_world, double weld_tolerance_m) {
-  // Sort by x, then compare within the tolerance window: exact for any tolerance, fast when
-  // coincident points are rare in x (the usual case).
+  // Points are grouped by their coordinates rounded to the tolerance (sorted keys): exact
+  // duplicates, the case of seams and split vertices, always share a key; two points within
+  // the tolerance but on either side of a rounding boundary are not joined (harmless: the
+  // T-junction stitching of BuildVertexGraph links such borders). A sweep along x alone
+  // would be quadratic on marching-cubes meshes, whose vertices share x by the thousand.
   const int n = static_cast<int>(points_in_world.size());
-  std::vector<int> order(static_cast<size_t>(n));
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    const Eigen::Vector3d& p = points_in_world[static_cast<size_t>(a)];
-    const Eigen::Vector3d& q = points_in_world[static_cast<size_t>(b)];
-    if (p.x() != q.x()) return p.x() < q.x();
-    if (p.y() != q.y()) return p.y() < q.y();
-    if (p.z() != q.z()) return p.z() < q.z();
-    return a < b;
-  });
-  std::vector<int> rep(static_cast<size_t>(n));
-  std::iota(rep.begin(), rep.end(), 0);
-  // Union-find over close pairs; representatives are the lowest index.
-  auto find = [&](int v) {
-    while (rep[static_cast<size_t>(v)] != v) {
-      rep[static_cast<size_t>(v)] = rep[static_cast<size_t>(rep[static_cast<size_t>(v)])];
-      v = rep[static_cast<size_t>(v)];
-    }
-    return v;
-  };
-  const double tol2 = weld_tolerance_m * weld_tolerance_m;
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d& p = points_in_world[static_cast<size_t>(order[static_cast<size_t>(i)])];
-    for (int j = i + 1; j < n; ++j) {
-      const Eigen::Vector3d& q = points_in_world[static_cast<size_t>(order[static_cast<size_t>(j)])];
-      if (q.x() - p.x() > weld_tolerance_m) break;
-      if ((q - p).squaredNorm() > tol2) continue;
-      const int a = find(order[static_cast<size_t>(i)]);
-      const int b = find(order[static_cast<size_t>(j)]);
-      if (a != b) rep[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
-    }
+  using Key = std::array<std::int64_t, 3>;
+  std::vector<std::pair<Key, int>> keyed(static_cast<size_t>(n));
+  for (int v = 0; v < n; ++v) {
+    const Eigen::Vector3d& p = points_in_world[static_cast<size_t>(v)];
+    keyed[static_cast<size_t>(v)] = {Key{std::llround(p.x() / weld_tolerance_m), std::llround(p.y() / weld_tolerance_m),
+                                         std::llround(p.z() / weld_tolerance_m)},
+                                     v};
   }
-  for (int v = 0; v < n; ++v) rep[static_cast<size_t>(v)] = find(v);
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<int> rep(static_cast<size_t>(n));
+  for (size_t i = 0; i < keyed.size();) {
+    size_t j = i;
+    while (j < keyed.size() && keyed[j].first == keyed[i].first) ++j;
+    for (size_t k = i; k < j; ++k) rep[static_cast<size_t>(keyed[k].second)] = keyed[i].second;  // lowest index
+    i = j;
+  }
   return rep;
 }
 

@@ -91,7 +91,8 @@ VertexGraph BuildVertexGraph(const ThermalMesh& mesh, double weld_tolerance_m = 
 
 // The same mesh with every face's vertices mapped to one representative per group of
 // coincident vertices (the lowest index), for algorithms that need shared vertices (iso-
-// line clipping along a path of triangles). Groups per `weld_tolerance_m`.
+// line clipping along a path of triangles). Groups: coordinates equal once rounded to
+// `weld_tolerance_m` (exact duplicates always are). O(V log V).
 std::vector<int> WeldMap(const std::vector<Eigen::Vector3d>& points_in_world,
                          double weld_tolerance_m = 1e-6);
 
