@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "analyze/annotate.h"
+#include "analyze/output_support.h"
 #include "analyze/image_out.h"
 #include "analyze/view_select.h"
 #include "analyze/views.h"
@@ -25,12 +26,6 @@ double Seconds(Clock::time_point since) {
 }
 
 size_t U(int i) { return static_cast<size_t>(i); }
-
-std::string Fixed(double value, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
 
 // Area-weighted quantile of the per-vertex field over faces (each face's area split over
 // its observed vertices).
@@ -75,19 +70,8 @@ FieldStats Stats(const ThermalMesh& mesh) {
   return s;
 }
 
-// A span rounded outwards to the ticks' step, so the bar's ends are round numbers.
-Span RoundOut(double lo, double hi) {
-  if (!(hi - lo >= 0.1)) {
-    const double mid = 0.5 * (lo + hi);
-    lo = mid - 0.05;
-    hi = mid + 0.05;
-  }
-  const double step = NiceStep(hi - lo, 6);
-  return Span{std::floor(lo / step) * step, std::ceil(hi / step) * step};
-}
-
 std::string SpotLabelText(const Spot& spot) {
-  return spot.id + " " + Fixed(spot.peak_c, 1) + " °C";
+  return spot.id + " " + FixedText(spot.peak_c, 1) + " °C";
 }
 
 struct ModeSpec {
@@ -170,26 +154,8 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     auto t = Clock::now();
     const MeshRenderer renderer(mesh);
     result.timings.bvh_s = renderer.build_seconds();
-    ViewSelectOptions select;
-    select.width = config.width;
-    select.height = config.height;
-    select.up_in_world = config.up_in_world.normalized();
-    std::vector<NamedView> views;
-    if (config.overviews > 0) {
-      select.overview_count = config.overviews;
-      views = OverviewViews(mesh, select);
-    }
-    for (const UserView& u : config.views) {
-      Camera camera;
-      camera.width = config.width;
-      camera.height = config.height;
-      camera.fov_y_deg = u.fov_y_deg;
-      if (u.ortho_height_m > 0) {
-        camera.orthographic = true;
-        camera.ortho_height_m = u.ortho_height_m;
-      }
-      views.push_back({u.name, LookAt(u.eye_in_world, u.target_in_world, u.up_in_world, camera)});
-    }
+    const ViewSelectOptions select = SelectOptions(config);
+    std::vector<NamedView> views = ConfiguredViews(mesh, config);
     struct CloseUp {
       const Spot* spot;
       NamedView view;
@@ -224,10 +190,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     }
     const int total = static_cast<int>(views.size() + closeups.size());
     int done = 0;
-    RenderOptions render_options;
-    render_options.samples_per_pixel = config.samples_per_pixel;
-    render_options.num_threads = inputs.num_threads;
-    render_options.cull_back_faces = true;
+    const RenderOptions render_options = ImageRenderOptions(config, inputs.num_threads);
     const std::optional<PaletteChoice> palette = ParsePalette(config.palette);
     const fs::path image_folder = out_folder / "images";
     fs::create_directories(image_folder);
@@ -332,62 +295,6 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
 
 namespace {
 
-std::string Vec(const Eigen::Vector3d& v) {
-  return "[" + core::JsonNumber(v.x()) + ", " + core::JsonNumber(v.y()) + ", " + core::JsonNumber(v.z()) + "]";
-}
-
-std::string CameraJson(const Camera& c) {
-  const Eigen::Quaterniond q(c.world_from_camera.linear());
-  core::JsonObject o;
-  o.String("projection", c.orthographic ? "orthographic" : "perspective")
-      .Int("width", c.width)
-      .Int("height", c.height);
-  if (c.orthographic) {
-    o.Number("ortho_height_m", c.ortho_height_m);
-  } else {
-    o.Number("fov_y_deg", c.fov_y_deg);
-  }
-  o.Add("position_m", Vec(c.world_from_camera.translation()))
-      .Add("q_xyzw", "[" + core::JsonNumber(q.x()) + ", " + core::JsonNumber(q.y()) + ", " + core::JsonNumber(q.z()) +
-                         ", " + core::JsonNumber(q.w()) + "]");
-  return o.str();
-}
-
-std::string SpotJson(const Spot& s, const AnalyzeResult& r) {
-  core::JsonObject o;
-  o.String("id", s.id)
-      .String("kind", s.hot ? "hot" : "cold")
-      .Number("peak_c", s.peak_c)
-      .Number("mean_c", s.mean_c)
-      .String("reference", s.reference)
-      .Number("reference_c", s.reference_c)
-      .Number("delta_k", s.delta_k)
-      .Number("level_c", s.level_c)
-      .Number("area_m2", s.area_m2)
-      .Number("area_sigma_m2", s.area_sigma_m2)
-      .Number("length_m", s.length_m)
-      .Number("length_sigma_m", s.length_sigma_m)
-      .Number("width_m", s.width_m)
-      .Number("width_sigma_m", s.width_sigma_m)
-      .String("unrolling", s.unrolling)
-      .Add("centroid_m", Vec(s.centroid_in_world))
-      .Add("peak_m", Vec(s.peak_in_world))
-      .Add("normal", Vec(s.normal_in_world))
-      .Number("radius_m", s.radius_m)
-      .Number("mean_confidence", s.mean_confidence)
-      .Number("mean_views", s.mean_views)
-      .Number("boundary_sigma_c", s.boundary_std_c)
-      .String("severity", s.severity)
-      .String("action", s.action)
-      .Int("faces", static_cast<int64_t>(s.faces.size()));
-  std::vector<std::string> images;
-  for (const AnalyzeImage& image : r.images) {
-    if (image.spot_id == s.id) images.push_back(core::JsonString(image.file));
-  }
-  o.Add("images", core::JsonArray(images, "      "));
-  return o.str();
-}
-
 }  // namespace
 
 std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, const AnalyzeResult& r) {
@@ -432,12 +339,18 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
   root.Add("severity_table", core::JsonArray(bands, "  "));
   std::vector<std::string> spots, rejected;
   if (r.detection) {
-    for (const Spot& s : r.detection->spots) spots.push_back(SpotJson(s, r));
+    for (const Spot& s : r.detection->spots) {
+      std::vector<std::string> files;
+      for (const AnalyzeImage& image : r.images) {
+        if (image.spot_id == s.id) files.push_back(image.file);
+      }
+      spots.push_back(SpotJson(s, files));
+    }
     for (const RejectedCandidate& x : r.detection->rejected) {
       rejected.push_back(core::JsonObject()
                              .String("kind", x.hot ? "hot" : "cold")
                              .Number("peak_c", x.peak_c)
-                             .Add("peak_m", Vec(x.peak_in_world))
+                             .Add("peak_m", Vector3Json(x.peak_in_world))
                              .String("reason", x.reason)
                              .str());
     }
@@ -519,11 +432,11 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
 
 std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
   std::ostringstream s;
-  s << "analyze: " << r.vertices << " vertices, " << r.faces << " faces, " << Fixed(r.area_m2, 2) << " m²";
+  s << "analyze: " << r.vertices << " vertices, " << r.faces << " faces, " << FixedText(r.area_m2, 2) << " m²";
   if (r.detection) {
-    s << ", " << Fixed(100 * r.observed_area_m2 / std::max(r.area_m2, 1e-12), 1) << " % with temperature ("
-      << Fixed(r.temperature_min_c, 1) << " … " << Fixed(r.temperature_max_c, 1) << " °C, median "
-      << Fixed(r.temperature_median_c, 1) << ")\n";
+    s << ", " << FixedText(100 * r.observed_area_m2 / std::max(r.area_m2, 1e-12), 1) << " % with temperature ("
+      << FixedText(r.temperature_min_c, 1) << " … " << FixedText(r.temperature_max_c, 1) << " °C, median "
+      << FixedText(r.temperature_median_c, 1) << ")\n";
     s << "  spots: " << r.detection->spots.size() << " (" << r.detection->candidates << " candidates, "
       << r.detection->rejected.size() << " measured and rejected) on " << r.detection->field << "\n";
     if (r.detection->unmeasured > 0) {
@@ -548,17 +461,17 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
   }
   if (r.truth) {
     s << "  truth: " << r.truth->found << " found, " << r.truth->missed << " missed, " << r.truth->false_spots.size()
-      << " false; max |error| area " << Fixed(100 * r.truth->max_abs_area_error, 2) << " %, length "
-      << Fixed(100 * r.truth->max_abs_length_error, 2) << " %, width " << Fixed(100 * r.truth->max_abs_width_error, 2)
-      << " %\n         at the truth's own thresholds: area " << Fixed(100 * r.truth->max_abs_area_error_at_threshold, 2)
-      << " %, length " << Fixed(100 * r.truth->max_abs_length_error_at_threshold, 2) << " %, width "
-      << Fixed(100 * r.truth->max_abs_width_error_at_threshold, 2) << " %\n";
+      << " false; max |error| area " << FixedText(100 * r.truth->max_abs_area_error, 2) << " %, length "
+      << FixedText(100 * r.truth->max_abs_length_error, 2) << " %, width " << FixedText(100 * r.truth->max_abs_width_error, 2)
+      << " %\n         at the truth's own thresholds: area " << FixedText(100 * r.truth->max_abs_area_error_at_threshold, 2)
+      << " %, length " << FixedText(100 * r.truth->max_abs_length_error_at_threshold, 2) << " %, width "
+      << FixedText(100 * r.truth->max_abs_width_error_at_threshold, 2) << " %\n";
   }
   s << "  images: " << r.images.size() << " in " << (r.out_folder / "images").string() << " (" << r.timings.renders
-    << " renders, " << Fixed(1e3 * r.timings.render_s / std::max(1, r.timings.renders), 0) << " ms each, BVH "
-    << Fixed(1e3 * r.timings.bvh_s, 0) << " ms)\n";
+    << " renders, " << FixedText(1e3 * r.timings.render_s / std::max(1, r.timings.renders), 0) << " ms each, BVH "
+    << FixedText(1e3 * r.timings.bvh_s, 0) << " ms)\n";
   for (const std::string& w : r.warnings) s << "  warning: " << w << "\n";
-  s << "  total " << Fixed(r.timings.total_s, 1) << " s; wrote " << (r.out_folder / "analyze.json").string() << "\n";
+  s << "  total " << FixedText(r.timings.total_s, 1) << " s; wrote " << (r.out_folder / "analyze.json").string() << "\n";
   return s.str();
 }
 

@@ -10,6 +10,7 @@
 
 #include "analyze/annotate.h"
 #include "analyze/image_out.h"
+#include "analyze/output_support.h"
 #include "analyze/render.h"
 #include "analyze/view_select.h"
 #include "analyze/views.h"
@@ -27,16 +28,10 @@ double Seconds(Clock::time_point since) { return std::chrono::duration<double>(C
 
 size_t U(int i) { return static_cast<size_t>(i); }
 
-std::string Fixed(double value, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
-
 // "+8.0", "−3.2" (U+2212, as the colour bar's ticks).
 std::string Signed(double value, int digits) {
-  const std::string s = Fixed(std::abs(value), digits);
-  if (s == Fixed(0, digits)) return s;
+  const std::string s = FixedText(std::abs(value), digits);
+  if (s == FixedText(0, digits)) return s;
   return (value < 0 ? "−" : "+") + s;
 }
 
@@ -63,18 +58,6 @@ double MeanEdgeLength(const ThermalMesh& mesh) {
   return mesh.faces.empty() ? 0 : sum / (3.0 * static_cast<double>(mesh.faces.size()));
 }
 
-// A span rounded outwards to the ticks' step (the bar's ends are round numbers); as the
-// analysis's overviews.
-Span RoundOut(double lo, double hi) {
-  if (!(hi - lo >= 0.1)) {
-    const double mid = 0.5 * (lo + hi);
-    lo = mid - 0.05;
-    hi = mid + 0.05;
-  }
-  const double step = NiceStep(hi - lo, 6);
-  return Span{std::floor(lo / step) * step, std::ceil(hi / step) * step};
-}
-
 // ±m rounded up to the ticks' step.
 Span SymmetricRoundOut(double m) {
   const double step = NiceStep(2 * m, 6);
@@ -96,7 +79,7 @@ bool Has(const SpotChange& c, const char* kind) {
 
 std::string ChangeLabelText(const SpotChange& c) {
   std::string text = ChangeName(c);
-  if (c.kinds.empty()) return text + " " + Fixed(c.peak_after_c, 1) + " °C";
+  if (c.kinds.empty()) return text + " " + FixedText(c.peak_after_c, 1) + " °C";
   for (size_t k = 0; k < c.kinds.size(); ++k) text += (k ? ", " : " ") + c.kinds[k];
   if (Has(c, "heated") || Has(c, "cooled")) text += " " + Signed(c.peak_after_c - c.peak_before_c, 1) + " K";
   if (Has(c, "grew") || Has(c, "shrank")) {
@@ -194,13 +177,13 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
   // asset or a wrong local minimum. A residual above the edge length: the surfaces do not
   // lie on each other (a scan's noise is well below its mesh resolution).
   if (a.inlier_fraction < 0.5) {
-    result.warnings.push_back("alignment: only " + Fixed(100 * a.inlier_fraction, 0) +
+    result.warnings.push_back("alignment: only " + FixedText(100 * a.inlier_fraction, 0) +
                               " % of BEFORE's samples lie on AFTER's surface (< 50 %): the models overlap "
                               "little or the alignment failed; check the difference images");
   }
   if (a.rms_residual_m > result.after_mean_edge_m) {
-    result.warnings.push_back("alignment: RMS residual " + Fixed(1e3 * a.rms_residual_m, 1) +
-                              " mm exceeds AFTER's mean edge length " + Fixed(1e3 * result.after_mean_edge_m, 1) +
+    result.warnings.push_back("alignment: RMS residual " + FixedText(1e3 * a.rms_residual_m, 1) +
+                              " mm exceeds AFTER's mean edge length " + FixedText(1e3 * result.after_mean_edge_m, 1) +
                               " mm: the shapes differ or the alignment failed");
   }
   if (!a.converged) {
@@ -212,7 +195,7 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
   result.timings.difference_s = Seconds(t);
   const TemperatureDifference& d = result.difference;
   if (d.compared_area_m2 < 0.5 * d.after_area_m2) {
-    result.warnings.push_back("only " + Fixed(100 * d.compared_area_m2 / std::max(d.after_area_m2, 1e-12), 0) +
+    result.warnings.push_back("only " + FixedText(100 * d.compared_area_m2 / std::max(d.after_area_m2, 1e-12), 0) +
                               " % of AFTER's surface has a BEFORE temperature to compare with");
   }
 
@@ -257,26 +240,8 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
     t = Clock::now();
     const MeshRenderer renderer(after);
     result.timings.bvh_s = renderer.build_seconds();
-    ViewSelectOptions select;
-    select.width = config.width;
-    select.height = config.height;
-    select.up_in_world = config.up_in_world.normalized();
-    std::vector<NamedView> views;
-    if (config.overviews > 0) {
-      select.overview_count = config.overviews;
-      views = OverviewViews(after, select);
-    }
-    for (const UserView& u : config.views) {
-      Camera camera;
-      camera.width = config.width;
-      camera.height = config.height;
-      camera.fov_y_deg = u.fov_y_deg;
-      if (u.ortho_height_m > 0) {
-        camera.orthographic = true;
-        camera.ortho_height_m = u.ortho_height_m;
-      }
-      views.push_back({u.name, LookAt(u.eye_in_world, u.target_in_world, u.up_in_world, camera)});
-    }
+    const ViewSelectOptions select = SelectOptions(config);
+    std::vector<NamedView> views = ConfiguredViews(after, config);
     std::vector<ChangePlace> places;
     for (const SpotChange& c : result.changes) places.push_back(PlaceOf(c, before, after, result));
     struct CloseUp {
@@ -305,10 +270,7 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
     }
     const int total = static_cast<int>(views.size() + closeups.size());
     int done = 0;
-    RenderOptions render_options;
-    render_options.samples_per_pixel = config.samples_per_pixel;
-    render_options.num_threads = inputs.num_threads;
-    render_options.cull_back_faces = true;
+    const RenderOptions render_options = ImageRenderOptions(config, inputs.num_threads);
     const std::optional<PaletteChoice> palette = ParsePalette(config.palette);
     const fs::path image_folder = out_folder / "images";
     fs::create_directories(image_folder);
@@ -415,61 +377,6 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
 
 namespace {
 
-std::string Vec(const Eigen::Vector3d& v) {
-  return "[" + core::JsonNumber(v.x()) + ", " + core::JsonNumber(v.y()) + ", " + core::JsonNumber(v.z()) + "]";
-}
-
-std::string Pair(const Span& s) { return "[" + core::JsonNumber(s.min_c) + ", " + core::JsonNumber(s.max_c) + "]"; }
-
-std::string Strings(const std::vector<std::string>& values) {
-  std::string s;
-  for (size_t k = 0; k < values.size(); ++k) s += (k ? ", " : "") + core::JsonString(values[k]);
-  return "[" + s + "]";
-}
-
-std::string CameraJson(const Camera& c) {
-  const Eigen::Quaterniond q(c.world_from_camera.linear());
-  core::JsonObject o;
-  o.String("projection", c.orthographic ? "orthographic" : "perspective").Int("width", c.width).Int("height", c.height);
-  if (c.orthographic) {
-    o.Number("ortho_height_m", c.ortho_height_m);
-  } else {
-    o.Number("fov_y_deg", c.fov_y_deg);
-  }
-  o.Add("position_m", Vec(c.world_from_camera.translation()))
-      .Add("q_xyzw", "[" + core::JsonNumber(q.x()) + ", " + core::JsonNumber(q.y()) + ", " + core::JsonNumber(q.z()) +
-                         ", " + core::JsonNumber(q.w()) + "]");
-  return o.str();
-}
-
-// A spot as analyze.json lists it (without its images: those are the changes').
-std::string SpotJson(const Spot& s) {
-  return core::JsonObject()
-      .String("id", s.id)
-      .String("kind", s.hot ? "hot" : "cold")
-      .Number("peak_c", s.peak_c)
-      .Number("mean_c", s.mean_c)
-      .String("reference", s.reference)
-      .Number("reference_c", s.reference_c)
-      .Number("delta_k", s.delta_k)
-      .Number("level_c", s.level_c)
-      .Number("area_m2", s.area_m2)
-      .Number("area_sigma_m2", s.area_sigma_m2)
-      .Number("length_m", s.length_m)
-      .Number("length_sigma_m", s.length_sigma_m)
-      .Number("width_m", s.width_m)
-      .Number("width_sigma_m", s.width_sigma_m)
-      .String("unrolling", s.unrolling)
-      .Add("centroid_m", Vec(s.centroid_in_world))
-      .Add("peak_m", Vec(s.peak_in_world))
-      .Add("normal", Vec(s.normal_in_world))
-      .Number("radius_m", s.radius_m)
-      .String("severity", s.severity)
-      .String("action", s.action)
-      .Int("faces", static_cast<int64_t>(s.faces.size()))
-      .str();
-}
-
 std::string MeshJson(const ThermalMesh& mesh, const fs::path& path) {
   return core::JsonObject()
       .String("file", path.string())
@@ -518,7 +425,7 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
   al.Add("after_from_before", core::JsonArray(rows, "    "))
       .Add("q_xyzw", "[" + core::JsonNumber(q.x()) + ", " + core::JsonNumber(q.y()) + ", " + core::JsonNumber(q.z()) +
                          ", " + core::JsonNumber(q.w()) + "]")
-      .Add("translation_m", Vec(a.after_from_before.translation()))
+      .Add("translation_m", Vector3Json(a.after_from_before.translation()))
       .Number("rotation_deg", r.rotation_deg)
       .Number("translation_length_m", r.translation_m)
       .Number("sigma_rotation_deg", std::sqrt(var_rot) * 180 / M_PI)
@@ -543,8 +450,8 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                              .Number("p95_abs_k", d.p95_abs_k)
                              .Number("max_distance_m", inputs.compare.max_distance_m)
                              .Number("region_radius_m", inputs.compare.region_radius_m)
-                             .Add("span_k", Pair(r.span_k))
-                             .Add("highlight_band_k", Pair(r.highlight_band_k))
+                             .Add("span_k", SpanJson(r.span_k))
+                             .Add("highlight_band_k", SpanJson(r.highlight_band_k))
                              .str());
   root.Add("detection", core::JsonObject()
                             .String("detect", c.spots.detect == SpotOptions::Detect::kDelta ? "delta" : "absolute")
@@ -560,8 +467,8 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                             .Number("peak_change_k", inputs.compare.peak_change_k)
                             .str());
   std::vector<std::string> before_spots, after_spots, changes;
-  for (const Spot& s : r.before_spots.spots) before_spots.push_back(SpotJson(s));
-  for (const Spot& s : r.after_spots.spots) after_spots.push_back(SpotJson(s));
+  for (const Spot& s : r.before_spots.spots) before_spots.push_back(SpotJson(s, {}));
+  for (const Spot& s : r.after_spots.spots) after_spots.push_back(SpotJson(s, {}));
   root.Add("before_spots", core::JsonArray(before_spots, "  "));
   root.Add("after_spots", core::JsonArray(after_spots, "  "));
   for (const SpotChange& x : r.changes) {
@@ -571,7 +478,7 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
     }
     changes.push_back(core::JsonObject()
                           .String("name", ChangeName(x))
-                          .Add("kinds", Strings(x.kinds))
+                          .Add("kinds", StringsJson(x.kinds))
                           .String("before", x.before_id)
                           .String("after", x.after_id)
                           .Number("distance_m", x.distance_m)
@@ -583,7 +490,7 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                           .Number("peak_change_k", x.peak_after_c - x.peak_before_c)
                           .Number("delta_before_k", x.delta_before_k)
                           .Number("delta_after_k", x.delta_after_k)
-                          .Add("images", Strings(images))
+                          .Add("images", StringsJson(images))
                           .str());
   }
   root.Add("changes", core::JsonArray(changes, "  "));
@@ -597,8 +504,8 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
         .String("field", ImageField(i, after.temperature_field))
         .String("change", i.spot_id)
         .Number("visible_fraction", i.visible_fraction)
-        .Add("span", Pair(i.span))
-        .Add("labelled", Strings(i.labelled_spots))
+        .Add("span", SpanJson(i.span))
+        .Add("labelled", StringsJson(i.labelled_spots))
         .Add("camera", CameraJson(i.camera));
     images.push_back(o.str());
   }
@@ -623,14 +530,14 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
 std::string FormatCompareSummary(const CompareResult& r) {
   std::ostringstream s;
   const Alignment& a = r.alignment;
-  s << "compare: aligned by " << Fixed(r.rotation_deg, 2) << "° and " << Fixed(100 * r.translation_m, 1)
-    << " cm (start " << a.coarse << "), RMS residual " << Fixed(1e3 * a.rms_residual_m, 2) << " mm, "
-    << Fixed(100 * a.inlier_fraction, 0) << " % inliers, " << a.iterations << " iterations"
+  s << "compare: aligned by " << FixedText(r.rotation_deg, 2) << "° and " << FixedText(100 * r.translation_m, 1)
+    << " cm (start " << a.coarse << "), RMS residual " << FixedText(1e3 * a.rms_residual_m, 2) << " mm, "
+    << FixedText(100 * a.inlier_fraction, 0) << " % inliers, " << a.iterations << " iterations"
     << (a.converged ? "" : " (not converged)") << "\n";
   const TemperatureDifference& d = r.difference;
-  s << "  difference after − before on " << Fixed(100 * d.compared_area_m2 / std::max(d.after_area_m2, 1e-12), 1)
+  s << "  difference after − before on " << FixedText(100 * d.compared_area_m2 / std::max(d.after_area_m2, 1e-12), 1)
     << " % of AFTER's surface: mean " << Signed(d.mean_k, 2) << " K, median " << Signed(d.median_k, 2)
-    << " K, 95 % of |ΔT| below " << Fixed(d.p95_abs_k, 2) << " K\n";
+    << " K, 95 % of |ΔT| below " << FixedText(d.p95_abs_k, 2) << " K\n";
   s << "  spots: " << r.before_spots.spots.size() << " before, " << r.after_spots.spots.size() << " after\n";
   s << "  change    before after kinds             peak °C before → after  area cm² before → after\n";
   int shown = 0;
@@ -642,7 +549,7 @@ std::string FormatCompareSummary(const CompareResult& r) {
     }
     std::string kinds;
     for (size_t k = 0; k < x.kinds.size(); ++k) kinds += (k ? "," : "") + x.kinds[k];
-    const auto num = [](double v, double scale) { return std::isfinite(v) ? Fixed(scale * v, 1) : std::string("—"); };
+    const auto num = [](double v, double scale) { return std::isfinite(v) ? FixedText(scale * v, 1) : std::string("—"); };
     s << "  " << Pad(ChangeName(x), 10) << Pad(x.before_id.empty() ? "—" : x.before_id, 7)
       << Pad(x.after_id.empty() ? "—" : x.after_id, 6) << Pad(kinds, 18) << Pad(num(x.peak_before_c, 1), 6, true)
       << " → " << Pad(num(x.peak_after_c, 1), 8) << Pad(num(x.area_before_m2, 1e4), 7, true) << " → "
@@ -656,7 +563,7 @@ std::string FormatCompareSummary(const CompareResult& r) {
       << r.timings.renders << " renders)\n";
   }
   for (const std::string& w : r.warnings) s << "  warning: " << w << "\n";
-  s << "  total " << Fixed(r.timings.total_s, 1) << " s (align " << Fixed(r.timings.align_s, 1) << " s); wrote "
+  s << "  total " << FixedText(r.timings.total_s, 1) << " s (align " << FixedText(r.timings.align_s, 1) << " s); wrote "
     << (r.out_folder / "compare.json").string() << "\n";
   return s.str();
 }
