@@ -135,9 +135,10 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     }
     result.span = std::isfinite(config.span_min_c) ? Span{config.span_min_c, config.span_max_c} : RoundOut(lo, hi);
     // The normal band: between the levels of the mildest hot and cold spots, so exactly the
-    // spots (and anything as abnormal) take the palette; without spots of a kind, that side
-    // is open.
-    double band_low = result.span.min_c - 1e3, band_high = result.span.max_c + 1e3;
+    // spots (and anything as abnormal) take the palette.
+    // Without spots of a kind that side is open: the band reaches the field's extreme (so
+    // nothing is beyond it, and the bar's label reads a real temperature).
+    double band_low = std::min(result.span.min_c, stats.min_c), band_high = std::max(result.span.max_c, stats.max_c);
     for (const Spot& s : spots) {
       if (s.hot) band_high = std::min(band_high, s.level_c);
       if (!s.hot) band_low = std::max(band_low, s.level_c);

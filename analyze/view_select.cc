@@ -77,8 +77,29 @@ std::vector<NamedView> OverviewViews(const ThermalMesh& mesh, const ViewSelectOp
   const double half_height_px = options.height * (0.5 - options.margin_fraction);
   std::vector<NamedView> views;
   const double elevation = options.elevation_deg * kDegToRad;
+  // A partial scan (one side of a machine, one wall) faces where it was scanned from: its
+  // area-weighted normal points there. The first overview then looks from that side, so
+  // with back faces culled it shows the surface rather than nothing. A closed room's normals
+  // cancel: the configured azimuth stays.
+  double first_azimuth = options.first_azimuth_deg * kDegToRad;
+  if (options.face_scanned_side) {
+    Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+    double area = 0;
+    for (int f = 0; f < mesh.NumFaces(); ++f) {
+      const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(f)];
+      const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(face[0])];
+      const Eigen::Vector3d n = (mesh.points_in_world[static_cast<size_t>(face[1])] - a)
+                                    .cross(mesh.points_in_world[static_cast<size_t>(face[2])] - a);
+      weighted += n;
+      area += n.norm();
+    }
+    const Eigen::Vector3d horizontal = weighted - weighted.dot(up) * up;
+    if (area > 0 && horizontal.norm() > 0.2 * area) {
+      first_azimuth = std::atan2(horizontal.dot(horizontal_2), horizontal.dot(horizontal_1));
+    }
+  }
   for (int k = 0; k < options.overview_count; ++k) {
-    const double azimuth = options.first_azimuth_deg * kDegToRad + 2 * M_PI * k / options.overview_count;
+    const double azimuth = first_azimuth + 2 * M_PI * k / options.overview_count;
     const Eigen::Vector3d to_eye = std::cos(elevation) * (std::cos(azimuth) * horizontal_1 +
                                                           std::sin(azimuth) * horizontal_2) +
                                    std::sin(elevation) * up;

@@ -39,6 +39,10 @@ struct ViewSelectOptions {
   // z up), counter-clockwise seen from above, in [-360, 360]: 45 looks along a room's
   // diagonal, showing two walls, rather than straight at one.
   double first_azimuth_deg = 45;
+  // When the surface mostly faces one horizontal direction (its area-weighted normal's
+  // horizontal part > 20 % of its area: a partial scan of one side), the first overview looks
+  // from that side instead of first_azimuth_deg.
+  bool face_scanned_side = true;
   // World up (see the header comment), non-zero; normalised when used.
   Eigen::Vector3d up_in_world = Eigen::Vector3d::UnitZ();
   // Close-ups: the spot's region spans this fraction of the image height, in (0, 1].

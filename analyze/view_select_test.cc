@@ -139,6 +139,25 @@ TEST(ViewSelectTest, CloseUpPrefersTheNormalWhenNothingBlocks) {
   EXPECT_NEAR((eye - (centroid + options.close_up_min_distance_m * normal)).norm(), 0.0, 1e-9);
 }
 
+TEST(ViewSelectTest, FirstOverviewLooksAtTheScannedSideOfAPartialScan) {
+  // One wall x = 0 facing −x (a scan taken from x < 0): the first overview's eye is on that
+  // side, whatever first_azimuth_deg says; a closed box keeps the configured azimuth.
+  ThermalMesh wall;
+  wall.points_in_world = {{0, -1, 0}, {0, 1, 0}, {0, 1, 2}, {0, -1, 2}};
+  wall.faces = {{0, 2, 1}, {0, 3, 2}};  // normal −x
+  ViewSelectOptions options;
+  const std::vector<NamedView> views = OverviewViews(wall, options);
+  EXPECT_LT(views[0].camera.world_from_camera.translation().x(), -0.5);
+  EXPECT_NEAR(views[0].camera.world_from_camera.translation().y(), 0, 1e-9);
+  options.face_scanned_side = false;  // 45°: +x, +y quadrant
+  EXPECT_GT(OverviewViews(wall, options)[0].camera.world_from_camera.translation().x(), 0.5);
+  ThermalMesh box;
+  AddBox(&box, Vector3d(-1, -1, 0), Vector3d(1, 1, 2));
+  const Vector3d eye = OverviewViews(box, ViewSelectOptions())[0].camera.world_from_camera.translation();
+  EXPECT_GT(eye.x(), 0.5);
+  EXPECT_GT(eye.y(), 0.5);
+}
+
 TEST(ViewSelectTest, OptionCheckNamesTheField) {
   ViewSelectOptions options;
   options.overview_count = 0;

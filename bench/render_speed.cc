@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
               scene_name.c_str(), max_edge_m, mesh.NumVertices(), mesh.NumFaces(), Ms(t0, Clock::now()) / 1e3);
 
   const hw::analyze::MeshRenderer renderer(mesh);
-  std::printf("BVH build (Embree, high quality): %.1f ms\n", renderer.build_seconds() * 1e3);
+  std::printf("BVH build (Embree; medium quality above 1 M triangles): %.1f ms\n", renderer.build_seconds() * 1e3);
 
   hw::analyze::ViewSelectOptions view_options;
   const hw::fixtures::ViewRegion& region = spec.view;
