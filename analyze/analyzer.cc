@@ -255,7 +255,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
           bar.inverted = style.inverted;
           bar.ih_hue = m.mode == ViewMode::kIhMapping;
           bar.span = span;
-          bar.title = mesh.temperature_field;
+          bar.title = mesh.temperature_field == "temperature_c" ? "Surface temperature" : mesh.temperature_field;
           if (m.mode == ViewMode::kHighlight) bar.band = result.highlight_band;
           a.colour_bar = bar;
         }

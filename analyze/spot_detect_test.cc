@@ -174,6 +174,51 @@ TEST(SpotDetectTest, UnobservedSurfaceIsNeverASpot) {
   EXPECT_TRUE(DetectSpots(mesh, SpotOptions()).spots.empty());
 }
 
+TEST(SpotDetectTest, ALowEmissivityLabelIsNoColdSpotInSurfaceTemperature) {
+  // A shiny label (ε 0.3) on a 30 °C surface in a 20 °C room reads ~7 K cold in apparent
+  // temperature; reconstruct writes the corrected surface temperature as temperature_c.
+  const ThermalMesh base = Plane(1.0, 0.01, [](double, double) { return 30.0; });
+  core::PlyMesh ply;
+  ply.SetPositions(base.points_in_world, core::PlyType::kFloat64);
+  std::vector<double> surface(base.points_in_world.size(), 30.0), apparent(surface.size());
+  for (size_t v = 0; v < surface.size(); ++v) {
+    const Eigen::Vector3d& p = base.points_in_world[v];
+    apparent[v] = std::abs(p.x()) < 0.1 && std::abs(p.y()) < 0.05 ? 23.0 : 29.6;
+  }
+  ply.AddProperty("temperature_c", core::PlyType::kFloat64, surface);
+  ply.AddProperty("temperature_apparent_c", core::PlyType::kFloat64, apparent);
+  ply.faces = base.faces;
+  EXPECT_TRUE(DetectSpots(MakeThermalMesh(ply, "m.ply"), SpotOptions()).spots.empty());
+  const SpotDetection apparent_spots = DetectSpots(MakeThermalMesh(ply, "m.ply", "temperature_apparent_c"), SpotOptions());
+  ASSERT_EQ(apparent_spots.spots.size(), 1u);  // what an apparent-temperature analysis would report
+  EXPECT_FALSE(apparent_spots.spots[0].hot);
+  EXPECT_EQ(apparent_spots.field, "temperature_apparent_c");
+}
+
+TEST(SpotDetectTest, NonManifoldMeshesAreMeasured) {
+  // Three sheets sharing one edge (a fin on a plate) and a vertex shared by two fans: the
+  // graph and the clipping need no manifoldness; the spot on the plate is measured.
+  ThermalMesh plate = Plane(1.0, 0.01, [](double x, double y) { return Plateau(std::hypot(x, y) - 0.1, 20, 40, 0.01); });
+  core::PlyMesh ply;
+  std::vector<Eigen::Vector3d> points = plate.points_in_world;
+  std::vector<double> t = plate.temperature_c;
+  std::vector<Eigen::Vector3i> faces = plate.faces;
+  // A fin along the plate's edge y = -0.5 (x from -0.5 to -0.49): two extra triangles on it.
+  const int a = 0, b = 1;  // the first grid edge
+  points.emplace_back(-0.5, -0.5, 0.2);
+  points.emplace_back(-0.49, -0.5, -0.2);
+  t.push_back(20);
+  t.push_back(20);
+  faces.emplace_back(a, b, static_cast<int>(points.size()) - 2);
+  faces.emplace_back(b, a, static_cast<int>(points.size()) - 1);
+  ply.SetPositions(points, core::PlyType::kFloat64);
+  ply.AddProperty("temperature_c", core::PlyType::kFloat64, t);
+  ply.faces = faces;
+  const SpotDetection d = DetectSpots(MakeThermalMesh(ply, "fin.ply"), SpotOptions());
+  ASSERT_EQ(d.spots.size(), 1u);
+  EXPECT_NEAR(d.spots[0].area_m2, kPi * 0.01, 0.02 * kPi * 0.01);
+}
+
 TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   SpotOptions o;
   EXPECT_EQ(o.Check(), "");
