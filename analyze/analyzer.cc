@@ -191,6 +191,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     }
     const int total = static_cast<int>(views.size() + closeups.size());
     int done = 0;
+    if (progress) progress(0, total);  // the bar starts its clock before the first render
     const RenderOptions render_options = ImageRenderOptions(config, inputs.num_threads);
     const std::optional<PaletteChoice> palette = ParsePalette(config.palette);
     const fs::path image_folder = out_folder / "images";
