@@ -34,6 +34,7 @@ struct Spot {
   // From reconstruct's per-vertex fields, area-weighted over the region; NaN when absent.
   double mean_confidence = 0;
   double mean_views = 0;
+  double mean_view_spread_c = 0;  // temperature_std_c: the spread across views, K
   double boundary_std_c = 0;  // temperature spread across views at the boundary
   // Severity from the configured table.
   std::string severity;

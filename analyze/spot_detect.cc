@@ -465,14 +465,19 @@ void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
   spot->peak_in_world = mesh.points_in_world[U(peak_vertex)];
   spot->delta_k = spot->peak_c - spot->reference_c;
   // Area-weighted means over the region's vertices.
-  double area = 0, mean = 0, confidence = 0, views = 0;
+  double area = 0, mean = 0, confidence = 0, views = 0, spread = 0, spread_area = 0;
   for (int v : m.region) {
     const double a = c.vertex_area[U(v)];
     area += a;
     mean += a * t[U(v)];
     if (!mesh.confidence.empty()) confidence += a * mesh.confidence[U(v)];
     if (!mesh.views.empty()) views += a * mesh.views[U(v)];
+    if (!mesh.std_c.empty() && std::isfinite(mesh.std_c[U(v)])) {
+      spread += a * mesh.std_c[U(v)];
+      spread_area += a;
+    }
   }
+  spot->mean_view_spread_c = spread_area > 0 ? spread / spread_area : kNaN;
   spot->mean_c = area > 0 ? mean / area : spot->peak_c;
   spot->mean_confidence = mesh.confidence.empty() || area <= 0 ? kNaN : confidence / area;
   spot->mean_views = mesh.views.empty() || area <= 0 ? kNaN : views / area;
