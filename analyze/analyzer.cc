@@ -114,13 +114,12 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
   const bool measurable = has_temperature && std::isfinite(stats.median_c);
   if (measurable) {
     const auto t = Clock::now();
-    result.detection = DetectSpots(mesh, config.spots);
+    const SpotFinder finder(mesh, config.spots);
+    result.detection = finder.Detect();
     result.timings.detect_s = Seconds(t);
-    if (!inputs.truth_path.empty()) {
-      const std::vector<TruthSpot> truth = ReadTruthSpots(inputs.truth_path);
-      result.truth = ScoreAgainstTruth(result.detection->spots, truth, inputs.truth_observed_only);
-      AddThresholdErrors(mesh, result.detection->spots, truth, config.spots, inputs.truth_observed_only,
-                         &*result.truth);
+    if (inputs.truth) {
+      result.truth = ScoreAgainstTruth(result.detection->spots, *inputs.truth, inputs.truth_observed_only);
+      AddThresholdErrors(finder, result.detection->spots, *inputs.truth, inputs.truth_observed_only, &*result.truth);
     }
   }
   const std::vector<Spot> no_spots;
@@ -152,7 +151,6 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
   }
 
   if (inputs.write_images) {
-    auto t = Clock::now();
     const MeshRenderer renderer(mesh);
     result.timings.bvh_s = renderer.build_seconds();
     const ViewSelectOptions select = SelectOptions(config);
@@ -287,7 +285,6 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     };
     for (const NamedView& v : views) render_view(v, nullptr, -1);
     for (const CloseUp& c : closeups) render_view(c.view, c.spot, c.visible);
-    (void)t;
   }
 
   result.timings.total_s = Seconds(start);

@@ -56,7 +56,8 @@ struct AnalyzeInputs {
   std::filesystem::path model_path;  // for analyze.json only
   AnalyzeConfig config;
   std::filesystem::path config_path;  // "" when defaults
-  std::filesystem::path truth_path;   // truth/hotspots.yaml to score against, or ""
+  std::filesystem::path truth_path;   // truth/hotspots.yaml scored against (for analyze.json)
+  std::optional<std::vector<TruthSpot>> truth;  // its spots (ReadTruthSpots), read by the caller
   bool truth_observed_only = false;   // score a reconstruction: only observed truth spots
   bool write_images = true;
   int num_threads = 0;                // renderer threads; 0 = all cores
@@ -64,8 +65,7 @@ struct AnalyzeInputs {
 
 // Runs the analysis of `mesh` and writes images/ and analyze.json into out_folder (created
 // if needed). `progress(done, total)` is called after each rendered view (may be null).
-// Throws core::OutputError when a file cannot be written, core::InputError for a bad truth
-// file. Asserts inputs.config.Check() == "".
+// Throws core::OutputError when a file cannot be written. Asserts inputs.config.Check() == "".
 AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs,
                       const std::filesystem::path& out_folder,
                       const std::function<void(int done, int total)>& progress);

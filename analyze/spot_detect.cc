@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <numeric>
 #include <queue>
 #include <unordered_map>
@@ -597,12 +598,30 @@ struct Prepared {
 
 }  // namespace
 
-SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
+struct SpotFinder::Impl {
+  const ThermalMesh& mesh;
+  SpotOptions options;
+  Prepared prepared;
+};
+
+SpotFinder::SpotFinder(const ThermalMesh& mesh, const SpotOptions& options)
+    : impl_(std::make_unique<Impl>(Impl{mesh, options, Prepared(mesh, options)})) {
   assert(mesh.HasTemperature());
   assert(options.Check().empty());
+}
+
+SpotFinder::~SpotFinder() = default;
+
+SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
+  return SpotFinder(mesh, options).Detect();
+}
+
+SpotDetection SpotFinder::Detect() const {
+  const ThermalMesh& mesh = impl_->mesh;
+  const SpotOptions& options = impl_->options;
+  const Prepared& prepared = impl_->prepared;
   SpotDetection result;
   result.field = mesh.temperature_field;
-  const Prepared prepared(mesh, options);
   const VertexGraph& graph = prepared.graph;
   const std::vector<double>& vertex_area = prepared.vertex_area;
   const std::vector<SeverityBand>& table = prepared.table;
@@ -718,12 +737,10 @@ SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options) {
   return result;
 }
 
-std::vector<std::optional<Spot>> MeasureSpotsAtLevels(const ThermalMesh& mesh,
-                                                      const std::vector<LevelRequest>& requests,
-                                                      const SpotOptions& options) {
-  assert(mesh.HasTemperature());
-  assert(options.Check().empty());
-  const Prepared prepared(mesh, options);
+std::vector<std::optional<Spot>> SpotFinder::MeasureAtLevels(const std::vector<LevelRequest>& requests) const {
+  const ThermalMesh& mesh = impl_->mesh;
+  const SpotOptions& options = impl_->options;
+  const Prepared& prepared = impl_->prepared;
   std::vector<std::optional<Spot>> out;
   for (const LevelRequest& request : requests) {
     const double sign = request.hot ? 1.0 : -1.0;

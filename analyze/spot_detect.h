@@ -26,6 +26,7 @@
 // temperature but not in surface temperature, so it makes no false cold spot here.
 
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -140,10 +141,6 @@ struct SpotDetection {
   std::string field;                // the per-vertex field measured
 };
 
-// Finds and measures spots on `mesh` (which must have temperature: asserts). Asserts
-// options.Check() == "".
-SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options);
-
 // Re-measurement of a region at a given level (scoring against a truth whose boundary is
 // an iso-temperature of its own, a user's limit for one spot): the region beyond level_c
 // (>= for hot, <= for cold) grown from the vertex beyond the level nearest seed_in_world.
@@ -152,11 +149,31 @@ struct LevelRequest {
   bool hot = true;
   double level_c = 0;
 };
-// One result per request; nullopt when no vertex is beyond the level or the region is
-// larger than options.max_area_m2 or smaller than min_area_m2.
-std::vector<std::optional<Spot>> MeasureSpotsAtLevels(const ThermalMesh& mesh,
-                                                      const std::vector<LevelRequest>& requests,
-                                                      const SpotOptions& options);
+
+// Spot detection on one mesh. The mesh's welded graph, vertex areas and faces around each
+// vertex are built once (seconds on a 5 M-face model) and shared by detection and any
+// re-measurement. `mesh` must outlive the finder and have temperature; options.Check() ==
+// "" (both asserted).
+class SpotFinder {
+ public:
+  SpotFinder(const ThermalMesh& mesh, const SpotOptions& options);
+  ~SpotFinder();
+  SpotFinder(const SpotFinder&) = delete;
+  SpotFinder& operator=(const SpotFinder&) = delete;
+
+  // Finds and measures the spots.
+  SpotDetection Detect() const;
+  // One result per request; nullopt when no vertex is beyond the level or the region is
+  // larger than options.max_area_m2 or smaller than min_area_m2.
+  std::vector<std::optional<Spot>> MeasureAtLevels(const std::vector<LevelRequest>& requests) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// SpotFinder(mesh, options).Detect().
+SpotDetection DetectSpots(const ThermalMesh& mesh, const SpotOptions& options);
 
 // Name and action of the band of |delta_k| in `table` (CheckSeverityTable-valid); "none"
 // and "" below the first band.

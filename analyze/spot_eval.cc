@@ -117,9 +117,8 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
   return score;
 }
 
-void AddThresholdErrors(const ThermalMesh& mesh, const std::vector<Spot>& spots,
-                        const std::vector<TruthSpot>& truth, const SpotOptions& options, bool observed_only,
-                        TruthScore* score) {
+void AddThresholdErrors(const SpotFinder& finder, const std::vector<Spot>& spots,
+                        const std::vector<TruthSpot>& truth, bool observed_only, TruthScore* score) {
   std::vector<LevelRequest> requests;
   std::vector<std::pair<TruthMatch*, const TruthSpot*>> targets;
   for (TruthMatch& m : score->matches) {
@@ -136,7 +135,7 @@ void AddThresholdErrors(const ThermalMesh& mesh, const std::vector<Spot>& spots,
     requests.push_back({spot->peak_in_world, t->hot, t->threshold_c});
     targets.emplace_back(&m, t);
   }
-  const std::vector<std::optional<Spot>> measured = MeasureSpotsAtLevels(mesh, requests, options);
+  const std::vector<std::optional<Spot>> measured = finder.MeasureAtLevels(requests);
   for (size_t i = 0; i < measured.size(); ++i) {
     if (!measured[i]) continue;
     TruthMatch& m = *targets[i].first;

@@ -81,9 +81,9 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
                              double gate_m = 0.1);
 
 // Fills the *_at_threshold errors of every found spot of `score`: the region beyond the
-// truth's threshold_c grown from the matched spot's peak (MeasureSpotsAtLevels).
-void AddThresholdErrors(const ThermalMesh& mesh, const std::vector<Spot>& spots,
-                        const std::vector<TruthSpot>& truth, const SpotOptions& options, bool observed_only,
-                        TruthScore* score);
+// truth's threshold_c grown from the matched spot's peak (SpotFinder::MeasureAtLevels, on
+// the finder that detected `spots`).
+void AddThresholdErrors(const SpotFinder& finder, const std::vector<Spot>& spots,
+                        const std::vector<TruthSpot>& truth, bool observed_only, TruthScore* score);
 
 }  // namespace hw::analyze

@@ -24,6 +24,8 @@ analyze::AnalyzeResult AnalyzeCommand(const AnalyzeCommandOptions& options, bool
   inputs.config_path = options.config_path;
   if (!options.config_path.empty()) inputs.config = analyze::ReadAnalyzeConfig(options.config_path);
   inputs.truth_path = options.truth_path;
+  // Every input is read before the output folder is touched: a bad file leaves nothing.
+  if (!options.truth_path.empty()) inputs.truth = analyze::ReadTruthSpots(options.truth_path);
   inputs.truth_observed_only = options.truth_observed_only;
   inputs.write_images = options.images;
   inputs.num_threads = options.num_threads;

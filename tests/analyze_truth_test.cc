@@ -54,10 +54,11 @@ void ExpectTargets(const std::string& name) {
   const core::PlyMesh ply = scene.Tessellate(fixtures::TruthMeshOptions(fixtures::SynthScanOptions()));
   const ThermalMesh mesh = MakeThermalMesh(ply, name + "/truth/scene.ply");
   const SpotOptions options;
-  const SpotDetection detection = DetectSpots(mesh, options);
+  const SpotFinder finder(mesh, options);
+  const SpotDetection detection = finder.Detect();
   const std::vector<TruthSpot> truth = Truth(scene);
   TruthScore score = ScoreAgainstTruth(detection.spots, truth);
-  AddThresholdErrors(mesh, detection.spots, truth, options, false, &score);
+  AddThresholdErrors(finder, detection.spots, truth, false, &score);
   std::string table;
   for (const TruthMatch& m : score.matches) {
     char line[200];
