@@ -16,6 +16,10 @@ find_package(nanoflann 1.4 REQUIRED)
 # libpng directly (core/image_io.cc): its error handlers are ours, so no decoder prints.
 find_package(PNG 1.6 REQUIRED)
 find_package(OpenNI2 REQUIRED)
+# report/: nlohmann_json::nlohmann_json reads analyze.json and reconstruct.json;
+# meshoptimizer::meshoptimizer decimates the model embedded in the HTML report.
+find_package(nlohmann_json 3.11 REQUIRED)
+find_package(meshoptimizer 0.18 REQUIRED)
 find_package(GTest 1.12 REQUIRED)
 # absl::flat_hash_map: the TSDF's block hash (reconstruct/tsdf_volume_impl.h).
 find_package(absl REQUIRED)

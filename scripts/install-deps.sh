@@ -21,10 +21,14 @@ packages=(
   libopenni2-dev libusb-1.0-0-dev
   # reconstruct: the TSDF's block hash (absl::flat_hash_map)
   libabsl-dev
-  # report
-  libcairo2-dev libpango1.0-dev
+  # report: PDF and images (Cairo + Pango), analyze.json / reconstruct.json reading,
+  # decimation of the model embedded in the HTML report's 3D view
+  libcairo2-dev libpango1.0-dev nlohmann-json3-dev libmeshoptimizer-dev
   # tests
   libgtest-dev libgmock-dev
+  # report tests: the PDF checked with pdftotext / pdffonts / pdfinfo, the HTML opened in
+  # headless Chromium
+  poppler-utils chromium
 )
 
 missing=()
