@@ -358,6 +358,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
   }
   root.Add("spots", core::JsonArray(spots, "  "));
   root.Add("rejected", core::JsonArray(rejected, "  "));
+  root.String("palette", c.palette);
   root.Add("span_c", "[" + core::JsonNumber(r.span.min_c) + ", " + core::JsonNumber(r.span.max_c) + "]");
   root.Add("highlight_band_c",
            "[" + core::JsonNumber(r.highlight_band.min_c) + ", " + core::JsonNumber(r.highlight_band.max_c) + "]");

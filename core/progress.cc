@@ -11,10 +11,18 @@ namespace hw::core {
 namespace {
 constexpr double kMinIntervalS = 0.1;
 constexpr int kBarWidth = 24;
+// The innermost live ProgressStage's prefix; main thread only, like the bars.
+std::string* g_stage_prefix = nullptr;
 }  // namespace
 
+ProgressStage::ProgressStage(std::string prefix) : prefix_(std::move(prefix)), outer_(g_stage_prefix) {
+  g_stage_prefix = &prefix_;
+}
+
+ProgressStage::~ProgressStage() { g_stage_prefix = outer_; }
+
 ProgressBar::ProgressBar(std::string label, int64_t total, std::string unit, bool quiet)
-    : label_(std::move(label)),
+    : label_(g_stage_prefix ? *g_stage_prefix + " " + label : std::move(label)),
       unit_(std::move(unit)),
       total_(std::max<int64_t>(total, 0)),
       quiet_(quiet),

@@ -44,4 +44,19 @@ class ProgressBar {
   std::chrono::steady_clock::time_point last_draw_;
 };
 
+// While one lives, every ProgressBar created is labelled "<prefix> <label>": a job of
+// several stages (heatwave audit) shows one display, "[2/3] analyze [#####.....] ...",
+// without the stages knowing they are part of it. Nests (the innermost wins); main thread.
+class ProgressStage {
+ public:
+  explicit ProgressStage(std::string prefix);
+  ~ProgressStage();
+  ProgressStage(const ProgressStage&) = delete;
+  ProgressStage& operator=(const ProgressStage&) = delete;
+
+ private:
+  std::string prefix_;
+  std::string* outer_;
+};
+
 }  // namespace hw::core

@@ -30,6 +30,26 @@ TEST(Progress, DrawsRateAndEtaOnStderr) {
   EXPECT_NE(out.find("ETA"), std::string::npos) << out;
 }
 
+TEST(Progress, StagesPrefixTheLabelsAndNest) {
+  ::testing::internal::CaptureStderr();
+  {
+    ProgressStage outer("[2/3]");
+    { ProgressBar bar("analyze", 1, "views"); bar.Advance(); }
+    {
+      ProgressStage inner("[x]");
+      ProgressBar bar("inner", 1);
+    }
+    ProgressBar bar("again", 1);
+  }
+  { ProgressBar bar("plain", 1); }
+  const std::string out = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(out.find("[2/3] analyze"), std::string::npos) << out;
+  EXPECT_NE(out.find("[x] inner"), std::string::npos) << out;
+  EXPECT_NE(out.find("[2/3] again"), std::string::npos) << out;
+  EXPECT_EQ(out.find("] plain"), std::string::npos) << out;
+  EXPECT_NE(out.find("plain"), std::string::npos) << out;
+}
+
 TEST(Progress, QuietPrintsNothing) {
   ::testing::internal::CaptureStderr();
   {

@@ -1,0 +1,147 @@
+#include "report/report_model.h"
+
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "report/report_test_support.h"
+#include "tests/support.h"
+
+namespace hw::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+const Table* FindTable(const Section& s) {
+  for (const Block& b : s.blocks) {
+    if (const auto* t = std::get_if<Table>(&b)) return t;
+  }
+  return nullptr;
+}
+
+const Section* FindSection(const Document& doc, const std::string& anchor) {
+  for (const Section& s : doc.sections) {
+    if (s.anchor == anchor) return &s;
+  }
+  return nullptr;
+}
+
+std::string ErrorOf(const ReportInputs& in) {
+  try {
+    BuildDocument(in);
+  } catch (const core::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ReportModelTest, Formatting) {
+  EXPECT_EQ(FormatWithSigma(0.6704, 0.0096, 100, "cm"), "67.04 ± 0.96 cm");
+  EXPECT_EQ(FormatWithSigma(0.6704, 0.012, 100, "cm"), "67.0 ± 1.2 cm");
+  EXPECT_EQ(FormatWithSigma(0.024866, 0.0036816, 1e4, "cm²"), "249 ± 37 cm²");
+  EXPECT_EQ(FormatArea(0.024866, 0.0036816), "249 ± 37 cm²");
+  EXPECT_EQ(FormatArea(1.234, 0.05), "1.234 ± 0.050 m²");  // two significant digits of σ
+  EXPECT_EQ(FormatLength(1.5, std::nan("")), "1.5 m");
+  EXPECT_EQ(FormatCelsius(27.849), "27.8 °C");
+  EXPECT_EQ(FormatCelsius(std::nan("")), "—");
+}
+
+TEST(ReportModelTest, BuildsEverySectionFromARealAnalysis) {
+  const fs::path folder = hw::test::TestFolder();
+  const test::PlateAnalysis plate = test::MakePlateAnalysis(folder);
+  ASSERT_TRUE(plate.result.detection);
+  ASSERT_EQ(plate.result.detection->spots.size(), 1u);
+  const analyze::Spot& spot = plate.result.detection->spots[0];
+  ReportInputs in;
+  in.analyze_json = plate.analyze_json;
+  in.model_ply = plate.model_ply;
+  in.job = test::TestJob();
+  const Document doc = BuildDocument(in);
+
+  EXPECT_EQ(doc.cover.subtitle, "Plant room 2 — ACME Ltd");
+  EXPECT_EQ(doc.created_utc, "2026-12-01T09:30:00Z");
+  EXPECT_EQ(doc.footer, "Report HW-TEST-7 · ACME Ltd · Plant room 2");
+  ASSERT_TRUE(doc.cover.hero);
+  EXPECT_TRUE(doc.cover.hero->key);
+  // Summary by severity: the one hot spot in its band, and the total.
+  int hot_total = 0;
+  for (const auto& row : doc.cover.summary.rows) {
+    if (row[0] == "Total") hot_total = std::stoi(row[2]);
+  }
+  EXPECT_EQ(hot_total, 1);
+
+  const Section* spots = FindSection(doc, "spots");
+  ASSERT_NE(spots, nullptr);
+  const Table* table = FindTable(*spots);
+  ASSERT_NE(table, nullptr);
+  ASSERT_EQ(table->rows.size(), 1u);
+  EXPECT_EQ(table->rows[0][0], spot.id);
+  EXPECT_EQ(table->rows[0][3], FormatCelsius(spot.peak_c));
+  EXPECT_EQ(table->rows[0][5], FormatArea(spot.area_m2, spot.area_sigma_m2));
+  EXPECT_EQ(table->rows[0][6], FormatLength(spot.length_m, spot.length_sigma_m));
+  EXPECT_EQ(table->row_links[0], "spot-h1");
+  // π (0.1 m)² = 314 cm²: the text shows the analysis' measurement.
+  EXPECT_NEAR(spot.area_m2, M_PI * 0.01, 0.05 * M_PI * 0.01);
+
+  const Section* detail = FindSection(doc, "spot-h1");
+  ASSERT_NE(detail, nullptr);
+  EXPECT_EQ(detail->level, 2);
+  bool close_ups = false;
+  for (const Block& b : detail->blocks) {
+    if (const auto* g = std::get_if<FigureGrid>(&b)) close_ups = g->figures.size() == 4;
+  }
+  EXPECT_TRUE(close_ups);
+  const Section* overview = FindSection(doc, "overview");
+  ASSERT_NE(overview, nullptr);
+  const auto& grid = std::get<FigureGrid>(overview->blocks[1]);
+  ASSERT_EQ(grid.figures.size(), 4u);
+  EXPECT_FALSE(grid.figures[1].key);  // the colour view has no colour bar
+  ASSERT_TRUE(grid.figures[3].key);
+  EXPECT_EQ(grid.figures[3].key->mode, analyze::ViewMode::kHighlight);
+
+  ASSERT_TRUE(doc.model_view);
+  ASSERT_EQ(doc.model_view->markers.size(), 1u);
+  EXPECT_EQ(doc.model_view->markers[0].anchor, "spot-h1");
+  EXPECT_LT(doc.model_view->markers[0].position_in_world.norm(), 0.1);  // the peak is on the disc
+  for (const char* anchor : {"summary", "inspection", "equipment", "scan", "method", "disclaimer"}) {
+    EXPECT_NE(FindSection(doc, anchor), nullptr) << anchor;
+  }
+}
+
+TEST(ReportModelTest, BadAnalysisFilesNameFileAndField) {
+  const fs::path folder = hw::test::TestFolder();
+  const test::PlateAnalysis plate = test::MakePlateAnalysis(folder);
+  ReportInputs in;
+  in.job = test::TestJob();
+  in.analyze_json = folder / "missing.json";
+  EXPECT_NE(ErrorOf(in).find("missing.json"), std::string::npos);
+
+  std::string json = core::ReadFile(plate.analyze_json, 1 << 26);
+  auto write_variant = [&](const std::string& from, const std::string& to) {
+    std::string text = json;
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    in.analyze_json = folder / "analysis" / "variant.json";
+    core::WriteFileAtomically(in.analyze_json, text);
+    return ErrorOf(in);
+  };
+  EXPECT_EQ(write_variant("\"area_m2\": ", "\"area_x\": "),
+            (folder / "analysis" / "variant.json").string() + ": mesh.area_m2: missing");
+  EXPECT_NE(write_variant("\"peak_c\": ", "\"peak_c\": \"hot\", \"x\": ").find("spots[0].peak_c: must be a number, got string"),
+            std::string::npos);
+  EXPECT_NE(write_variant("\"has_temperature\": true", "\"has_temperature\": false").find("the model has no temperature"),
+            std::string::npos);
+  EXPECT_NE(write_variant("{", "[").find("not valid JSON"), std::string::npos);
+  EXPECT_NE(write_variant("\"file\": \"images/", "\"file\": \"../../etc/").find("must be a path inside the analysis folder"), std::string::npos);
+  // An image listed but gone.
+  in.analyze_json = plate.analyze_json;
+  fs::remove(folder / "analysis" / plate.result.images[0].file);
+  EXPECT_NE(ErrorOf(in).find("missing: analyze.json lists this image"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hw::report

@@ -1,0 +1,84 @@
+#pragma once
+
+// Test support for report/ tests: a real analysis (analyze::Analyze on a plate with a hot
+// disc, small images) to build reports from, and a job.
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "analyze/analyzer.h"
+#include "core/ply.h"
+#include "report/job.h"
+
+namespace hw::report::test {
+
+struct PlateAnalysis {
+  std::filesystem::path model_ply, analyze_json;
+  analyze::AnalyzeResult result;
+};
+
+// A 1 m plate (z = 0, seen from +z) at 20 °C on a 1 cm grid with a 20 cm hot disc at 50 °C
+// (smooth 4 mm edge), red on its left half; written to folder/model.ply and analysed into
+// folder/analysis with 160 × 120 images (one overview and the close-up).
+inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder) {
+  const int n = 100;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> t;
+  std::vector<core::Rgb8> colours;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = -0.5 + 0.01 * i, y = -0.5 + 0.01 * j;
+      points.emplace_back(x, y, 0);
+      t.push_back(20 + 30 / (1 + std::exp((std::hypot(x, y) - 0.1) / 0.004)));
+      colours.emplace_back(x < 0 ? 200 : 90, 90, 90);
+    }
+  }
+  core::PlyMesh ply;
+  ply.SetPositions(points);
+  ply.AddProperty("temperature_c", core::PlyType::kFloat32, t);
+  ply.SetColors(colours);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i;
+      ply.faces.emplace_back(a, a + 1, a + n + 2);
+      ply.faces.emplace_back(a, a + n + 2, a + n + 1);
+    }
+  }
+  std::filesystem::create_directories(folder);
+  PlateAnalysis out;
+  out.model_ply = folder / "model.ply";
+  core::WritePly(out.model_ply, ply);
+  analyze::AnalyzeInputs inputs;
+  inputs.model_path = out.model_ply;
+  inputs.config.width = 160;
+  inputs.config.height = 120;
+  inputs.config.samples_per_pixel = 1;
+  inputs.config.overviews = 1;
+  inputs.num_threads = 2;
+  const analyze::ThermalMesh mesh = analyze::ReadThermalMesh(out.model_ply);
+  out.result = analyze::Analyze(mesh, inputs, folder / "analysis", nullptr);
+  out.analyze_json = folder / "analysis" / "analyze.json";
+  return out;
+}
+
+inline Job TestJob() {
+  Job job;
+  job.title = "Infrared thermography inspection report";
+  job.reference = "HW-TEST-7";
+  job.inspection_date = "2026-11-30";
+  job.issued_utc = "2026-12-01T09:30:00Z";
+  job.client = {"ACME Ltd", "1 Industrial Way\nSpringfield", "J. Smith"};
+  job.site = {"Plant room 2", "Building 4", ""};
+  job.assets = {{"MCC-1", "Motor control cabinet", "North wall", "400 V, 3 phase"}};
+  job.inspector = {"A. Inspector", "ISO 9712 Level 2 thermographer", "TH-881", "Heat Ltd"};
+  job.instrument = {"heatwave rig", "0042", "2026-06-01"};
+  job.conditions.ambient_c = 21.5;
+  job.conditions.emissivity = 0.95;
+  job.standards = {"ISO 18434-1"};
+  job.notes = "Door 3 was locked.";
+  return job;
+}
+
+}  // namespace hw::report::test
