@@ -10,12 +10,15 @@ namespace hw::cli {
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"help", RunHelp, "list the commands, or show one command's options"},
+      {"demo", RunDemo, "render the bundled demo scan and audit it end to end (model, HTML and PDF report)"},
+      {"audit", RunAudit, "the whole job: reconstruct a scan with temperature, analyze it, write the report"},
       {"version", RunVersion, "print the version"},
       {"scan-info", RunScanInfo, "validate a scan folder and summarise its streams"},
       {"synth", RunSynth, "render a synthetic scan or calibration session with ground truth"},
       {"reconstruct", RunReconstruct, "track the depth stream and fuse a coloured 3D model"},
       {"analyze", RunAnalyze, "find and measure hot and cold spots on a model; render it in the four modes"},
       {"compare", RunCompare, "align two models of one asset and map the temperature change; list spot changes"},
+      {"report", RunReport, "write the HTML and PDF report of an audit or analysis folder"},
       {"eval-trajectory", RunEvalTrajectory,
        "ATE and RPE of a TUM trajectory against a ground truth"},
   };

@@ -70,6 +70,9 @@ int RunSynth(int argc, char** argv);
 int RunReconstruct(int argc, char** argv);
 int RunAnalyze(int argc, char** argv);
 int RunCompare(int argc, char** argv);
+int RunAudit(int argc, char** argv);
+int RunReport(int argc, char** argv);
+int RunDemo(int argc, char** argv);
 int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli

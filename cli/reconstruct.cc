@@ -3,6 +3,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -12,6 +13,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/json.h"
+#include "core/option_check.h"
 #include "core/output_folder.h"
 #include "core/ply.h"
 #include "core/progress.h"
@@ -35,8 +37,6 @@ const std::vector<std::string>& OutputEntries() {
   static const std::vector<std::string> entries = {"trajectory.txt", "model.ply", "reconstruct.json"};
   return entries;
 }
-
-constexpr double kTruncationVoxels = 4;
 
 // Model vertices farther than this from the true surface count as outliers, not errors.
 constexpr double kSurfaceSearchM = 0.05;
@@ -212,6 +212,12 @@ std::string ReconstructCommandOptions::Check() const {
   if (std::string m = thermal_fusion.Check(); !m.empty()) return "thermal." + m;
   if (emissivity_from_truth && !emissivity_path.empty()) {
     return "--emissivity-from-truth: cannot be combined with --emissivity";
+  }
+  if (emissivity && !(*emissivity >= core::ThermalSettings::kMinEmissivity && *emissivity <= 1)) {
+    return core::OptionFail("emissivity", *emissivity, "in [0.01, 1]");
+  }
+  if (reflected_c && !(std::abs(*reflected_c) <= core::ThermalSettings::kMaxReflectedC)) {
+    return core::OptionFail("reflected_c", *reflected_c, "finite, within ±3000 °C");
   }
   if (emissivity_from_truth && !scan.start_at_groundtruth) {
     return "--emissivity-from-truth: needs --start-at-groundtruth (the truth is in the scan's world frame)";

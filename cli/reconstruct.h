@@ -15,6 +15,9 @@
 
 namespace hw::cli {
 
+// Default TSDF truncation distance, in voxels.
+inline constexpr double kTruncationVoxels = 4;
+
 struct ReconstructCommandOptions {
   std::filesystem::path scan_folder;
   std::filesystem::path out_folder;
@@ -27,6 +30,11 @@ struct ReconstructCommandOptions {
   bool thermal = true;
   reconstruct::ThermalFusionOptions thermal_fusion;
   std::filesystem::path emissivity_path;  // user emissivity file; empty: rig.yaml's for all
+  // On-site values replacing rig.yaml's thermal emissivity (0.01..1) and reflected apparent
+  // temperature (°C) — the scene default an emissivity file falls back to (heatwave audit:
+  // job.yaml's conditions).
+  std::optional<double> emissivity;
+  std::optional<double> reflected_c;
   // Synthetic scans: each region's emissivity from truth/scene.ply (needs
   // scan.start_at_groundtruth), to measure fusion without the error of a wrong emissivity.
   bool emissivity_from_truth = false;

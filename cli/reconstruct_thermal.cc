@@ -32,7 +32,9 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
                                                               std::vector<std::string>& warnings,
                                                               std::string& emissivity_source) {
   if (!options.thermal) return nullptr;
-  const core::Rig& rig = scan.rig();
+  core::Rig rig = scan.rig();
+  if (rig.thermal_settings && options.emissivity) rig.thermal_settings->emissivity = *options.emissivity;
+  if (rig.thermal_settings && options.reflected_c) rig.thermal_settings->reflected_c = *options.reflected_c;
   if (!rig.thermal || !rig.thermal_settings) {
     if (scan.NumFrames(core::Stream::kThermal) > 0) {
       warnings.push_back("the rig has no thermal camera: the thermal frames are ignored and the model has no temperature");
@@ -44,7 +46,8 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
     return nullptr;
   }
   reconstruct::EmissivityMap emissivity(*rig.thermal_settings);
-  emissivity_source = core::StringPrintf("rig.yaml: %.3f everywhere, reflected %.2f °C",
+  emissivity_source = core::StringPrintf("%s: %.3f everywhere, reflected %.2f °C",
+                                         options.emissivity || options.reflected_c ? "on-site values" : "rig.yaml",
                                          rig.thermal_settings->emissivity, rig.thermal_settings->reflected_c);
   if (!options.emissivity_path.empty()) {
     emissivity = reconstruct::EmissivityMap::Read(options.emissivity_path, *rig.thermal_settings);

@@ -297,9 +297,10 @@ std::string Base64(std::string_view bytes) {
   return out;
 }
 
-std::string RenderHtml(const Document& doc, const HtmlOptions& options) {
+std::string RenderHtml(const Document& doc, const HtmlOptions& options, int* images) {
   Renderer r{doc, options, {}, 0};
   r.Render();
+  if (images) *images = r.images;
   return std::move(r.out);
 }
 

@@ -38,9 +38,9 @@ std::string HtmlEscape(std::string_view text);
 // Standard base64 (RFC 4648, with padding) of `bytes`.
 std::string Base64(std::string_view bytes);
 
-// The page as a string. Throws core::InputError(png, reason) for a figure whose PNG
-// cannot be read.
-std::string RenderHtml(const Document& doc, const HtmlOptions& options = {});
+// The page as a string; *images (if given) the count of images inlined. Throws
+// core::InputError(png, reason) for a figure whose PNG cannot be read.
+std::string RenderHtml(const Document& doc, const HtmlOptions& options = {}, int* images = nullptr);
 
 // RenderHtml written to `path` atomically (a failure leaves no file). Throws
 // core::InputError as RenderHtml, core::OutputError when `path` cannot be written.
