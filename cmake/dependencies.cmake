@@ -20,6 +20,9 @@ find_package(OpenNI2 REQUIRED)
 # meshoptimizer::meshoptimizer decimates the model embedded in the HTML report.
 find_package(nlohmann_json 3.11 REQUIRED)
 find_package(meshoptimizer 0.18 REQUIRED)
+# ZLIB::ZLIB deflates the model embedded in the HTML report (the page inflates it with
+# the browser's DecompressionStream).
+find_package(ZLIB REQUIRED)
 find_package(GTest 1.12 REQUIRED)
 # absl::flat_hash_map: the TSDF's block hash (reconstruct/tsdf_volume_impl.h).
 find_package(absl REQUIRED)

@@ -38,14 +38,31 @@ for p in "${packages[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  echo "install-deps: all ${#packages[@]} packages already installed"
-  exit 0
-fi
-
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages already installed"
+else
+  echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+# report: three.js and esbuild for the HTML report's 3D view, pinned by
+# report/viewer/package-lock.json; the build bundles them offline from node_modules.
+if ! command -v npm >/dev/null 2>&1; then
+  echo "install-deps: npm not found: installing Debian's nodejs and npm"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends nodejs npm
+fi
+viewer_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/report/viewer"
+if [ ! -d "$viewer_dir/node_modules" ] || [ "$viewer_dir/package-lock.json" -nt "$viewer_dir/node_modules" ]; then
+  echo "install-deps: npm ci in report/viewer"
+  (cd "$viewer_dir" && npm ci --no-audit --no-fund)
+  touch "$viewer_dir/node_modules"
+else
+  echo "install-deps: report/viewer/node_modules is up to date"
+fi
