@@ -13,4 +13,8 @@ std::string StringPrintf(const char* format, ...) __attribute__((format(printf, 
 // path or a library's reason holding a newline must not split one.
 std::string OneLineMessage(std::string_view text);
 
+// Standard base64 (RFC 4648, alphabet A–Z a–z 0–9 + /, '=' padding) of `bytes`: images and
+// data inlined in the HTML report.
+std::string Base64(std::string_view bytes);
+
 }  // namespace hw::core

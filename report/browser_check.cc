@@ -103,7 +103,7 @@ std::filesystem::path MakeTempFolder(const std::string& prefix) {
 }  // namespace
 
 BrowserResult OpenInHeadlessChromium(const std::filesystem::path& html, int width_px, int height_px,
-                                     double timeout_s) {
+                                     double timeout_s, const std::string& fragment) {
   BrowserResult result;
   std::error_code ec;
   const std::filesystem::path page = std::filesystem::absolute(html, ec);
@@ -144,7 +144,7 @@ BrowserResult OpenInHeadlessChromium(const std::filesystem::path& html, int widt
       "--virtual-time-budget=10000",
       "--window-size=" + std::to_string(width_px) + "," + std::to_string(height_px),
   };
-  const std::string url = "file://" + page.string();
+  const std::string url = "file://" + page.string() + (fragment.empty() ? "" : "#" + fragment);
 
   const auto run = [&](const std::string& name, const std::vector<std::string>& extra) {
     std::vector<std::string> args = common;

@@ -28,8 +28,9 @@ struct BrowserResult {
 // --virtual-time-budget so that scripts and animation frames run before the capture. Two
 // runs: --dump-dom (stdout → dom) and --screenshot at --window-size=width_px,height_px.
 // Each run is killed (its whole process group) after `timeout_s` seconds. Never throws
-// for a browser failure: see available / reason / exit_code.
+// for a browser failure: see available / reason / exit_code. A non-empty `fragment` is
+// appended to the page's URL ("#fragment": the page opens scrolled to that id).
 BrowserResult OpenInHeadlessChromium(const std::filesystem::path& html, int width_px, int height_px,
-                                     double timeout_s = 60);
+                                     double timeout_s = 60, const std::string& fragment = "");
 
 }  // namespace hw::report

@@ -116,7 +116,7 @@ struct Renderer {
     if (png.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0) throw core::InputError(f.png, "not a PNG file");
     ++images;
     out += "<figure><img alt=\"" + HtmlEscape(f.caption) + "\" width=\"" + std::to_string(f.width_px) +
-           "\" height=\"" + std::to_string(f.height_px) + "\" src=\"data:image/png;base64," + Base64(png) + "\">";
+           "\" height=\"" + std::to_string(f.height_px) + "\" src=\"data:image/png;base64," + core::Base64(png) + "\">";
     if (f.key) out += ColourBar(*f.key);
     out += "<figcaption>" + HtmlEscape(f.caption) + "</figcaption></figure>\n";
   }
@@ -214,7 +214,7 @@ struct Renderer {
       const char* h = s.level == 1 ? "h2" : "h3";
       out += std::string("<") + h + "><span class=\"num\">" + numbers[i] + "</span>" + HtmlEscape(s.title) + "</" + h + ">\n";
       if (s.anchor == "overview" && !options.model_view_html.empty()) {
-        out += "<div class=\"no-print\">" + options.model_view_html + "</div>\n";
+        out += "<div class=\"no-print\" id=\"model-3d\">" + options.model_view_html + "</div>\n";
       }
       for (const report::Block& b : s.blocks) std::visit([&](const auto& x) { Block(x); }, b);
       out += "</section>\n";
@@ -268,31 +268,6 @@ std::string HtmlEscape(std::string_view text) {
       out += "\xEF\xBF\xBD";
       ++i;
     }
-  }
-  return out;
-}
-
-std::string Base64(std::string_view bytes) {
-  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  size_t i = 0;
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const uint32_t v = static_cast<uint32_t>(static_cast<unsigned char>(bytes[i])) << 16 |
-                       static_cast<uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8 |
-                       static_cast<unsigned char>(bytes[i + 2]);
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += kAlphabet[(v >> 6) & 63];
-    out += kAlphabet[v & 63];
-  }
-  if (i < bytes.size()) {
-    uint32_t v = static_cast<uint32_t>(static_cast<unsigned char>(bytes[i])) << 16;
-    if (i + 1 < bytes.size()) v |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8;
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[(v >> 6) & 63] : '=';
-    out += '=';
   }
   return out;
 }

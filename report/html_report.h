@@ -35,9 +35,6 @@ struct HtmlStats {
 // invalid UTF-8 bytes become U+FFFD, control characters other than \n and \t are dropped.
 std::string HtmlEscape(std::string_view text);
 
-// Standard base64 (RFC 4648, with padding) of `bytes`.
-std::string Base64(std::string_view bytes);
-
 // The page as a string; *images (if given) the count of images inlined. Throws
 // core::InputError(png, reason) for a figure whose PNG cannot be read.
 std::string RenderHtml(const Document& doc, const HtmlOptions& options = {}, int* images = nullptr);

@@ -7,6 +7,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/strings.h"
 #include "report/report_model.h"
 #include "report/report_test_support.h"
 #include "tests/support.h"
@@ -23,14 +24,14 @@ size_t Count(const std::string& haystack, const std::string& needle) {
 }
 
 TEST(HtmlReportTest, Base64MatchesRfc4648) {
-  EXPECT_EQ(Base64(""), "");
-  EXPECT_EQ(Base64("f"), "Zg==");
-  EXPECT_EQ(Base64("fo"), "Zm8=");
-  EXPECT_EQ(Base64("foo"), "Zm9v");
-  EXPECT_EQ(Base64("foob"), "Zm9vYg==");
-  EXPECT_EQ(Base64("fooba"), "Zm9vYmE=");
-  EXPECT_EQ(Base64("foobar"), "Zm9vYmFy");
-  EXPECT_EQ(Base64(std::string("\xff\xfe\x00", 3)), "//4A");
+  EXPECT_EQ(core::Base64(""), "");
+  EXPECT_EQ(core::Base64("f"), "Zg==");
+  EXPECT_EQ(core::Base64("fo"), "Zm8=");
+  EXPECT_EQ(core::Base64("foo"), "Zm9v");
+  EXPECT_EQ(core::Base64("foob"), "Zm9vYg==");
+  EXPECT_EQ(core::Base64("fooba"), "Zm9vYmE=");
+  EXPECT_EQ(core::Base64("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(core::Base64(std::string("\xff\xfe\x00", 3)), "//4A");
 }
 
 TEST(HtmlReportTest, EscapesMarkupAndInvalidUtf8) {

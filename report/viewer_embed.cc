@@ -16,6 +16,7 @@
 #include "analyze/srgb.h"
 #include "analyze/views.h"
 #include "core/option_check.h"
+#include "core/strings.h"
 
 // The viewer bundle (esbuild output of report/viewer/viewer.js), linked in by
 // viewer_bundle.cc.
@@ -39,26 +40,6 @@ float Luminance(const Eigen::Vector3f& linear) {
 
 void PutSrgb8(std::vector<uint8_t>& out, size_t v, const Eigen::Vector3f& linear) {
   for (int c = 0; c < 3; ++c) out[v * 3 + static_cast<size_t>(c)] = analyze::LinearToSrgb8(linear[c]);
-}
-
-std::string Base64(const uint8_t* data, size_t size) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((size + 2) / 3 * 4);
-  size_t i = 0;
-  for (; i + 2 < size; i += 3) {
-    const uint32_t n = (uint32_t{data[i]} << 16) | (uint32_t{data[i + 1]} << 8) | data[i + 2];
-    for (int shift = 18; shift >= 0; shift -= 6) out += kAlphabet[(n >> shift) & 63];
-  }
-  if (i < size) {
-    const uint32_t n = (uint32_t{data[i]} << 16) | (i + 1 < size ? uint32_t{data[i + 1]} << 8 : 0);
-    out += kAlphabet[(n >> 18) & 63];
-    out += kAlphabet[(n >> 12) & 63];
-    out += i + 1 < size ? kAlphabet[(n >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
 }
 
 // zlib stream (RFC 1950) of `bytes`, which the viewer inflates with the browser's
@@ -369,7 +350,7 @@ std::string ViewerHtml(const analyze::ThermalMesh& mesh, const ModelView& view,
   html += "</div>\n<div class=\"hw-viewer-hint\">Drag to rotate, right-drag to pan, wheel to zoom; click a marker to go to its spot</div>\n";
   html += "<div class=\"hw-viewer-message\" hidden></div>\n";
   html += "<script type=\"application/json\" class=\"hw-viewer-meta\">" + ScriptSafeJson(meta) + "</script>\n";
-  html += "<script type=\"application/octet-stream\" class=\"hw-viewer-data\">" + Base64(compressed.data(), compressed.size()) +
+  html += "<script type=\"application/octet-stream\" class=\"hw-viewer-data\">" + core::Base64(std::string_view(reinterpret_cast<const char*>(compressed.data()), compressed.size())) +
           "</script>\n";
   html += "<script>" + ScriptSafeBundle() + "</script>\n</div>\n";
 

@@ -7,8 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <png.h>
+#include <unistd.h>
+
 #include "core/atomic_file.h"
 #include "reconstruct/reconstruct_test_support.h"
+#include "report/browser_check.h"
 #include "report/report_model.h"
 #include "report/report_test_support.h"
 #include "tests/support.h"
@@ -116,6 +120,54 @@ TEST(AuditCli, ReportIsByteIdenticalAndCarriesTheAnalysisNumbers) {
   EXPECT_NE(info.output.find("A4"), std::string::npos) << info.output;
   EXPECT_NE(info.output.find("CreationDate:   Tue Dec  1 00:00:00 2026"), std::string::npos)
       << "the creation date comes from the job, not the clock\n" << info.output;
+}
+
+// Variance of the grey level over the rows [y0, y1) of an 8-bit PNG; -1 when unreadable.
+double RowsVariance(const fs::path& png_path, int y0, int y1) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, png_path.c_str())) return -1;
+  image.format = PNG_FORMAT_GRAY;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) return -1;
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (int y = y0; y < std::min<int>(y1, static_cast<int>(image.height)); ++y) {
+    for (uint32_t x = 0; x < image.width; ++x) {
+      const double g = pixels[static_cast<size_t>(y) * image.width + x];
+      sum += g;
+      sum2 += g * g;
+      ++count;
+    }
+  }
+  return count == 0 ? -1 : sum2 / count - (sum / count) * (sum / count);
+}
+
+// The whole report opened in headless Chromium with the network blocked: the 3D view
+// renders with no Content-Security-Policy violation, its canvas is not blank, and the
+// hostile job's script never ran.
+TEST(AuditCli, ReportOpensOfflineInChromiumWith3dView) {
+  if (access("/usr/bin/chromium", X_OK) != 0) {
+    GTEST_SKIP() << "/usr/bin/chromium absent: install it with scripts/install-deps.sh";
+  }
+  const fs::path folder = TestFolder();
+  const hw::report::test::PlateAnalysis plate = hw::report::test::MakePlateAnalysis(folder);
+  hw::core::WriteFileAtomically(folder / "job.yaml", kHostileJob);
+  const Result r = Heatwave("report " + (folder / "analysis").string() + " --job " + (folder / "job.yaml").string() +
+                            " --model " + plate.model_ply.string() + " --no-pdf -q");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const hw::report::BrowserResult page =
+      hw::report::OpenInHeadlessChromium(folder / "analysis" / "report.html", 1000, 800, 90, "model-3d");
+  ASSERT_TRUE(page.available) << page.reason;
+  EXPECT_EQ(page.exit_code, 0) << page.reason;
+  EXPECT_NE(page.dom.find("data-hw-viewer=\"rendered\""), std::string::npos) << page.dom.substr(0, 400);
+  EXPECT_EQ(page.dom.find("data-hw-csp-violations"), std::string::npos) << "the page tried a forbidden request";
+  EXPECT_EQ(page.dom.find("data-hw-injected"), std::string::npos) << "the job file's script ran";
+  ASSERT_FALSE(page.screenshot_png.empty()) << page.reason;
+  // Scrolled to the 3D view: its canvas fills the top ~560 px. An empty canvas or page is
+  // flat (variance ≈ 0); the plate on the iron palette with its hot disc is not.
+  EXPECT_GT(RowsVariance(page.screenshot_png, 0, 500), 100.0);
+  fs::remove_all(page.screenshot_png.parent_path());
 }
 
 TEST(AuditCli, BadInputsAreOneLineAndLeaveNoReport) {
