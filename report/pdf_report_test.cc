@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "report/pdf_layout.h"
 #include "tests/support.h"
 
 namespace hw::report {
@@ -145,6 +146,47 @@ int PageOf(const std::vector<std::string>& pages, const std::string& needle, int
     if (pages[p].find(needle) != std::string::npos) return static_cast<int>(p) + 1;
   }
   return 0;
+}
+
+// Pagination alone: a heading chain moves to the next page rather than end one, a table
+// row that starts a page brings its header, space_before vanishes at a page top.
+TEST(PdfPaginate, KeepsHeadingsWithContentAndRepeatsHeaders) {
+  const double body = pdf::kBodyBottom - pdf::kBodyTop;
+  std::vector<pdf::Unit> units;
+  auto add = [&](double h, double space = 0) -> pdf::Unit& {
+    units.push_back(pdf::Unit{});
+    units.back().height = h;
+    units.back().space_before = space;
+    return units.back();
+  };
+  add(body - 50);                            // 0: fills most of page 1
+  pdf::Unit& heading = add(20, 10);          // 1: fits (30 pt) but its content does not
+  heading.keep_with_next = true;
+  heading.anchor = "h";
+  add(40, 5);                                // 2: first line of the content
+  pdf::Unit& header = add(15, 10);           // 3: a table header
+  header.keep_with_next = true;
+  auto repeat = std::make_shared<pdf::Unit>();
+  repeat->height = 15;
+  for (int r = 0; r < 60; ++r) add(15).repeat_header = repeat;  // 4..63
+  std::map<std::string, int> anchors;
+  const std::vector<pdf::Page> pages = pdf::Paginate(units, &anchors);
+  ASSERT_GE(pages.size(), 3u);
+  ASSERT_EQ(pages[0].size(), 1u);            // the heading left page 1 with its content
+  EXPECT_EQ(anchors.at("h"), 2);
+  EXPECT_EQ(pages[1][0].unit, &units[1]);
+  EXPECT_DOUBLE_EQ(pages[1][0].y, pdf::kBodyTop);  // no space_before at the top
+  EXPECT_EQ(pages[1][1].unit, &units[2]);
+  EXPECT_EQ(pages[2][0].unit, repeat.get());  // the continuation starts with the header
+  EXPECT_EQ(pages[2][1].unit->repeat_header, repeat);
+  size_t placed = 0;
+  for (const pdf::Page& page : pages) {
+    for (const pdf::Placed& p : page) {
+      EXPECT_LE(p.y + p.unit->height, pdf::kBodyBottom + 1e-9);
+      if (p.unit != repeat.get()) ++placed;
+    }
+  }
+  EXPECT_EQ(placed, units.size());
 }
 
 TEST(PdfReport, OptionsCheck) {
