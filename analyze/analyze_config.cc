@@ -108,7 +108,7 @@ Eigen::Vector3d Vector(const YamlReader& reader, const Fields& f, const char* na
 void ParseImages(const YamlReader& reader, const YAML::Node& node, AnalyzeConfig* c) {
   const Fields f = reader.Mapping(node, "images",
                                   {"width", "height", "samples_per_pixel", "palette", "span_c",
-                                   "highlight_band_c", "overviews", "closeups", "max_closeups", "float_format", "up",
+                                   "highlight_band_c", "overviews", "closeups", "max_closeups", "float_format", "legends", "up",
                                    "views"});
   if (f.Has("width")) c->width = reader.Integer(f.Required("width"), f.Path("width"));
   if (f.Has("height")) c->height = reader.Integer(f.Required("height"), f.Path("height"));
@@ -130,6 +130,7 @@ void ParseImages(const YamlReader& reader, const YAML::Node& node, AnalyzeConfig
   if (f.Has("closeups")) c->closeups = ReadBool(reader, f.Required("closeups"), f.Path("closeups"));
   if (f.Has("max_closeups")) c->max_closeups = reader.Integer(f.Required("max_closeups"), f.Path("max_closeups"));
   if (f.Has("up")) c->up_in_world = Vector(reader, f, "up");
+  if (f.Has("legends")) c->legends = ReadBool(reader, f.Required("legends"), f.Path("legends"));
   if (f.Has("float_format")) c->float_format = reader.String(f.Required("float_format"), f.Path("float_format"));
   if (f.Has("views")) {
     const YAML::Node& list = f.Required("views");

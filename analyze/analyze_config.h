@@ -32,6 +32,7 @@
 //     overviews: 4                  # automatic overview views (0: none)
 //     closeups: true                # one close-up per spot
 //     float_format: exr             # exr | tiff: raw temperature per pixel
+//     legends: true                 # title strip and colour bar on each image
 //     up: [0, 0, 1]                 # world up of the overviews (reconstruct started
 //                                   # without groundtruth: the first camera's [0, -1, 0])
 //     views:                        # extra views
@@ -71,6 +72,9 @@ struct AnalyzeConfig {
   int overviews = 4;              // [0, 12]
   bool closeups = true;
   std::string float_format = "exr";  // exr | tiff
+  // Each image gets a title strip and a colour-bar panel (false: spot labels only — what
+  // heatwave audit asks for, since its report draws vector colour bars and captions).
+  bool legends = true;
   // World up for the overviews: z up is the fixtures' frame and reconstruct's when it starts
   // at groundtruth; a reconstruction started at its first camera has up ≈ −y.
   Eigen::Vector3d up_in_world = Eigen::Vector3d::UnitZ();

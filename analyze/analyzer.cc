@@ -247,8 +247,10 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
         style.band_high_c = result.highlight_band.max_c;
         const ImageRgb8 image = ComposeView(mesh, samples, measurable ? mesh.temperature_c : std::vector<double>(U(mesh.NumVertices()), NAN), style);
         Annotation a;
-        a.title = (framed != nullptr ? "Spot " + framed->id + " — " : "View " + view.name + " — ") + m.title;
-        if (m.mode != ViewMode::kColour) {
+        if (config.legends) {
+          a.title = (framed != nullptr ? "Spot " + framed->id + " — " : "View " + view.name + " — ") + m.title;
+        }
+        if (config.legends && m.mode != ViewMode::kColour) {
           ColourBar bar;
           bar.palette = style.palette;
           bar.inverted = style.inverted;
@@ -358,7 +360,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
   }
   root.Add("spots", core::JsonArray(spots, "  "));
   root.Add("rejected", core::JsonArray(rejected, "  "));
-  root.String("palette", c.palette);
+  root.String("palette", c.palette).Bool("legends", c.legends);
   root.Add("span_c", "[" + core::JsonNumber(r.span.min_c) + ", " + core::JsonNumber(r.span.max_c) + "]");
   root.Add("highlight_band_c",
            "[" + core::JsonNumber(r.highlight_band.min_c) + ", " + core::JsonNumber(r.highlight_band.max_c) + "]");

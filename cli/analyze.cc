@@ -23,6 +23,7 @@ analyze::AnalyzeResult AnalyzeCommand(const AnalyzeCommandOptions& options, bool
   inputs.model_path = options.model_path;
   inputs.config_path = options.config_path;
   if (!options.config_path.empty()) inputs.config = analyze::ReadAnalyzeConfig(options.config_path);
+  if (options.legends) inputs.config.legends = *options.legends;
   inputs.truth_path = options.truth_path;
   // Every input is read before the output folder is touched: a bad file leaves nothing.
   if (!options.truth_path.empty()) inputs.truth = analyze::ReadTruthSpots(options.truth_path);

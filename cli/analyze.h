@@ -4,6 +4,7 @@
 // images in the four modes, analyze.json for the report.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "analyze/analyzer.h"
@@ -19,6 +20,8 @@ struct AnalyzeCommandOptions {
   bool overwrite = false;
   bool images = true;
   int num_threads = 0;
+  // Overrides analyze.yaml's images.legends (heatwave audit: false, its report draws them).
+  std::optional<bool> legends;
 
   std::string Check() const;
 };

@@ -147,6 +147,7 @@ AuditResult AuditCommand(const AuditCommandOptions& options, bool quiet) {
     a.config_path = job.analyze_config;
     a.overwrite = true;
     a.num_threads = options.num_threads;
+    a.legends = false;  // the report draws vector colour bars and captions
     result.analysis = AnalyzeCommand(a, quiet);
     result.analyze_s = Since(t0);
   }

@@ -5,6 +5,7 @@
 #include <iostream>
 #include <memory>
 
+#include "analyze/analyze_config.h"
 #include "cli/audit.h"
 #include "cli/command.h"
 #include "core/atomic_file.h"
@@ -13,6 +14,7 @@
 #include "core/progress.h"
 #include "core/strings.h"
 #include "fixtures/synth_scan.h"
+#include "report/job.h"
 
 namespace hw::cli {
 namespace {
@@ -63,7 +65,7 @@ std::string DemoJobYaml() {
          "assets:\n"
          "  - {id: MCC-3, name: Motor control cabinet, location: North wall, description: 400 V distribution}\n"
          "  - {id: P-11, name: Heating flow and return pipes, location: East wall}\n"
-         "  - {id: M-2, name: Circulation pump motor, location: Floor, centre}\n"
+         "  - {id: M-2, name: Circulation pump motor, location: \"Floor, centre\"}\n"
          "inspection:\n"
          "  date: 2026-12-01\n"
          "  inspector:\n"
@@ -99,6 +101,9 @@ int RunDemo(int argc, char** argv) {
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   return RunGuarded([&] {
     ThrowIfInvalid(o.Check());
+    // The bundled files parse (a bug otherwise): checked before minutes of rendering.
+    report::ParseJob(DemoJobYaml(), o.out_folder / "job.yaml");
+    analyze::ParseAnalyzeConfig(DemoAnalyzeYaml(), o.out_folder / "analyze.yaml");
     const fs::path scan = o.out_folder / "scan";
     {
       core::OutputFolder folder(o.out_folder, "heatwave demo");

@@ -161,6 +161,8 @@ AnalysisRecord ReadAnalysisRecord(const fs::path& path) {
   a.model = r.String(root, "model", "");
   a.field = r.String(root, "field", "");
   a.palette = r.String(root, "palette", "");
+  // Absent in files of analyzers that always drew legends.
+  a.legends = r.Has(root, "legends") ? r.Bool(root, "legends", "") : true;
   const Json& mesh = r.At(root, "mesh", "");
   a.vertices = r.Integer(mesh, "vertices", "mesh");
   a.faces = r.Integer(mesh, "faces", "mesh");

@@ -28,6 +28,7 @@ struct SeverityRecord {
 struct AnalysisRecord {
   std::filesystem::path folder;  // of analyze.json
   std::string model, field, palette = "iron";
+  bool legends = true;  // the images carry their own title strip and colour bar
   int vertices = 0, faces = 0, unobserved = 0;
   double area_m2 = 0, observed_area_m2 = 0, min_c = 0, median_c = 0, max_c = 0;
   bool has_colour = false;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <tuple>
 #include <map>
 
 #include <Eigen/Geometry>
@@ -87,12 +89,31 @@ std::string ModeTitle(const std::string& mode) {
   return mode;
 }
 
+// Width and height from a PNG's IHDR chunk (the analyzer's legends make an image larger
+// than its render). Throws core::InputError for a missing file or one that is not a PNG.
+std::pair<int, int> PngSize(const fs::path& png) {
+  if (!fs::is_regular_file(png)) throw core::InputError(png, "missing: analyze.json lists this image");
+  std::ifstream in(png, std::ios::binary);
+  unsigned char header[24] = {};
+  in.read(reinterpret_cast<char*>(header), sizeof header);
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (in.gcount() != sizeof header || !std::equal(kSignature, kSignature + 8, header) ||
+      std::string(reinterpret_cast<const char*>(header + 12), 4) != "IHDR") {
+    throw core::InputError(png, "not a PNG file");
+  }
+  auto be32 = [&](int at) {
+    return static_cast<int>(uint32_t{header[at]} << 24 | uint32_t{header[at + 1]} << 16 |
+                            uint32_t{header[at + 2]} << 8 | header[at + 3]);
+  };
+  const int w = be32(16), h = be32(20);
+  if (w <= 0 || h <= 0 || w > 1 << 16 || h > 1 << 16) throw core::InputError(png, "PNG of invalid size");
+  return {w, h};
+}
+
 Figure MakeFigure(const AnalysisRecord& a, const ReportImageRecord& im) {
   Figure f;
   f.png = a.folder / im.file;
-  if (!fs::is_regular_file(f.png)) throw core::InputError(f.png, "missing: analyze.json lists this image");
-  f.width_px = im.width;
-  f.height_px = im.height;
+  std::tie(f.width_px, f.height_px) = PngSize(f.png);
   const std::optional<analyze::PaletteChoice> palette = analyze::ParsePalette(a.palette);
   const std::optional<analyze::ViewMode> mode = analyze::ParseViewMode(im.mode);
   if (!palette || !mode) {
@@ -100,7 +121,7 @@ Figure MakeFigure(const AnalysisRecord& a, const ReportImageRecord& im) {
                            "image " + im.file + ": unknown palette '" + a.palette + "' or mode '" + im.mode + "'");
   }
   std::string caption = ModeTitle(im.mode);
-  if (*mode != analyze::ViewMode::kColour) {
+  if (*mode != analyze::ViewMode::kColour && !a.legends) {
     ColourKey key;
     key.mode = *mode;
     key.palette = palette->palette;
@@ -109,6 +130,8 @@ Figure MakeFigure(const AnalysisRecord& a, const ReportImageRecord& im) {
     key.band_low_c = a.band.min_c;
     key.band_high_c = a.band.max_c;
     f.key = key;
+  }
+  if (*mode != analyze::ViewMode::kColour) {
     caption += StringPrintf(", %.1f–%.1f °C", im.span.min_c, im.span.max_c);
     if (*mode == analyze::ViewMode::kHighlight) {
       caption += StringPrintf(" outside %.1f–%.1f °C", a.band.min_c, a.band.max_c);

@@ -56,6 +56,7 @@ inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder) {
   inputs.config.height = 120;
   inputs.config.samples_per_pixel = 1;
   inputs.config.overviews = 1;
+  inputs.config.legends = false;  // as heatwave audit: the report draws the colour bars
   inputs.num_threads = 2;
   const analyze::ThermalMesh mesh = analyze::ReadThermalMesh(out.model_ply);
   out.result = analyze::Analyze(mesh, inputs, folder / "analysis", nullptr);

@@ -1,8 +1,10 @@
 #include "report/report_writer.h"
 
+#include <cassert>
 #include <chrono>
 
 #include "analyze/thermal_mesh.h"
+#include "core/atomic_file.h"
 #include "core/output_folder.h"
 
 namespace hw::report {
@@ -25,7 +27,6 @@ ReportWriteResult WriteReport(const ReportInputs& inputs, const std::filesystem:
   auto step = [&] {
     if (progress) progress(++done, total);
   };
-  if (progress) progress(0, total);
   Document doc = BuildDocument(inputs);
   step();
   if (!model_view) doc.model_view.reset();

@@ -336,6 +336,8 @@ std::string ViewerHtml(const analyze::ThermalMesh& mesh, const ModelView& view,
           ".hw-viewer-modes button:disabled{opacity:.4;cursor:default}\n"
           ".hw-viewer-hint{position:absolute;bottom:6px;right:8px;font:12px sans-serif;color:#ddd}\n"
           ".hw-viewer-message{padding:1em;font:14px sans-serif;color:#eee}\n"
+          ".hw-viewer.hw-full{position:fixed;inset:0;z-index:1000;margin:0;border:0}\n"
+          ".hw-viewer.hw-full canvas{height:100vh}\n"
           "@media print{.hw-viewer{display:none}}\n"
           "</style>\n";
   html += "<div class=\"hw-viewer\">\n<canvas aria-label=\"3D view of the thermal model\"></canvas>\n";
@@ -347,6 +349,7 @@ std::string ViewerHtml(const analyze::ThermalMesh& mesh, const ModelView& view,
     html += std::string("<button type=\"button\" data-mode=\"") + name + "\" aria-pressed=\"false\"" +
             (enabled ? "" : " disabled") + ">" + title + "</button>";
   }
+  html += "<button type=\"button\" data-action=\"full\" aria-pressed=\"false\" title=\"Fill the window (Esc to leave)\">Full window</button>";
   html += "</div>\n<div class=\"hw-viewer-hint\">Drag to rotate, right-drag to pan, wheel to zoom; click a marker to go to its spot</div>\n";
   html += "<div class=\"hw-viewer-message\" hidden></div>\n";
   html += "<script type=\"application/json\" class=\"hw-viewer-meta\">" + ScriptSafeJson(meta) + "</script>\n";

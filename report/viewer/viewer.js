@@ -81,6 +81,11 @@ function modeFromUrl() {
   return read(location.hash) || read(location.search);
 }
 
+// "#view=full" or "?view=full": the view opens filling the window.
+function fullFromUrl() {
+  return /(?:^|[?#&])view=full(?:$|&)/.test(location.hash) || /(?:^|[?#&])view=full(?:$|&)/.test(location.search);
+}
+
 const vertexShader = `
 attribute vec3 colour;
 attribute float unobserved;
@@ -313,6 +318,18 @@ async function setUp(container) {
     requestDraw();
   };
   buttons.forEach((b) => b.addEventListener('click', () => setMode(b.dataset.mode)));
+  // Full window: the view covers the page until toggled back or Escape.
+  const fullButton = container.querySelector('button[data-action="full"]');
+  const setFull = (full) => {
+    container.classList.toggle('hw-full', full);
+    if (fullButton) fullButton.setAttribute('aria-pressed', full ? 'true' : 'false');
+    resize();
+  };
+  if (fullButton) fullButton.addEventListener('click', () => setFull(!container.classList.contains('hw-full')));
+  window.addEventListener('keydown', (e) => {
+    if (e.key === 'Escape' && container.classList.contains('hw-full')) setFull(false);
+  });
+  if (fullFromUrl()) setFull(true);
   setMode(modeFromUrl() || meta.initial_mode);
   window.addEventListener('hashchange', () => {
     const mode = modeFromUrl();
