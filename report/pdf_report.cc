@@ -132,7 +132,9 @@ class Builder {
       // The hero takes the height the rest of the cover leaves, so the cover is one page.
       double used = 0;
       for (size_t i = first; i < units_.size(); ++i) used += units_[i].height + units_[i].space_before;
-      const double budget = pdf::kBodyBottom - pdf::kBodyTop - used - 2 * kBlockGap - 6;
+      // Besides the image: its colour key and a one-line caption.
+      const double under_image = pdf::ColourKeyHeight(text_) + 4 + 2 * kCaption.size_pt + 8;
+      const double budget = pdf::kBodyBottom - pdf::kBodyTop - used - 2 * kBlockGap - 6 - under_image;
       const double max_image_h = std::max(budget, 0.35 * (pdf::kBodyBottom - pdf::kBodyTop));
       std::vector<Unit> summary(units_.begin() + static_cast<std::ptrdiff_t>(before_hero), units_.end());
       units_.resize(before_hero);
@@ -309,32 +311,46 @@ class Builder {
     }
   }
 
-  // Column widths: natural widths when they fit (the spare width spread in proportion);
-  // otherwise numeric columns keep theirs and text columns share the rest and wrap.
+  // Column widths, as an HTML table lays them out: natural widths when they fit (the spare
+  // width spread in proportion); otherwise every column keeps at least its widest word
+  // (numeric columns their whole text: numbers never wrap) and the columns share what is
+  // left in proportion to how much wrapping saves them.
   std::vector<double> ColumnWidths(const Table& table) const {
     const size_t n = table.header.size();
-    std::vector<double> natural(n, 0);
+    std::vector<double> natural(n, 0), least(n, 0);
+    auto widest_word = [&](const std::string& text, const Text::Style& style) {
+      double widest = 0;
+      size_t start = 0;
+      while (start <= text.size()) {
+        size_t end = text.find_first_of(" \n", start);
+        if (end == std::string::npos) end = text.size();
+        if (end > start) widest = std::max(widest, Text::Width(text_.Make(text.substr(start, end - start), style).get()));
+        start = end + 1;
+      }
+      return widest;
+    };
     for (size_t c = 0; c < n; ++c) {
       natural[c] = Text::Width(text_.Make(table.header[c], kTableHeader).get());
-      for (const auto& row : table.rows) natural[c] = std::max(natural[c], Text::Width(text_.Make(row[c], kTable).get()));
-      natural[c] += 2 * kCellPadX + (c == 0 && !table.tint_srgb8.empty() ? 10 : 0);
+      least[c] = widest_word(table.header[c], kTableHeader);
+      for (const auto& row : table.rows) {
+        natural[c] = std::max(natural[c], Text::Width(text_.Make(row[c], kTable).get()));
+        least[c] = std::max(least[c], table.numeric[c] ? natural[c] : widest_word(row[c], kTable));
+      }
+      const double pad = 2 * kCellPadX + (c == 0 && !table.tint_srgb8.empty() ? 10 : 0);
+      natural[c] += pad;
+      least[c] = std::min(natural[c], least[c] + pad);
     }
     const double w = pdf::kBodyWidth;
-    double total = 0;
-    for (double x : natural) total += x;
+    double total = 0, total_least = 0;
+    for (size_t c = 0; c < n; ++c) total += natural[c], total_least += least[c];
     std::vector<double> widths = natural;
     if (total <= w) {
       for (double& x : widths) x += (w - total) * x / total;
-      return widths;
-    }
-    double fixed = 0, flexible = 0;
-    for (size_t c = 0; c < n; ++c) (table.numeric[c] ? fixed : flexible) += natural[c];
-    if (fixed > 0.6 * w || flexible == 0) {
-      for (double& x : widths) x *= w / total;
+    } else if (total_least >= w) {
+      for (size_t c = 0; c < n; ++c) widths[c] = least[c] * w / total_least;
     } else {
-      for (size_t c = 0; c < n; ++c) {
-        if (!table.numeric[c]) widths[c] = natural[c] * (w - fixed) / flexible;
-      }
+      const double share = (w - total_least) / (total - total_least);
+      for (size_t c = 0; c < n; ++c) widths[c] = least[c] + (natural[c] - least[c]) * share;
     }
     return widths;
   }

@@ -235,6 +235,7 @@ ReconstructionRecord ReadReconstructionRecord(const fs::path& path) {
   ReconstructionRecord o;
   const Json& input = r.At(root, "input", "");
   o.scan = r.String(input, "scan", "input");
+  o.rig = r.String(input, "rig", "input");
   o.depth_frames = r.Integer(input, "depth_frames", "input");
   const Json& s = r.At(root, "summary", "");
   o.fused = r.Integer(s, "fused", "summary");

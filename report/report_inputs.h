@@ -48,6 +48,7 @@ struct AnalysisRecord {
 
 struct ReconstructionRecord {
   std::string scan;
+  std::string rig;  // the rig.yaml the reconstruction used, as given to it
   int depth_frames = 0, fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0;
   int vertices = 0, faces = 0;
   double area_m2 = 0, total_s = 0, frames_per_s = 0;

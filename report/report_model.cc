@@ -455,8 +455,11 @@ Document BuildDocument(const ReportInputs& in) {
   const AnalysisRecord a = ReadAnalysisRecord(in.analyze_json);
   std::optional<ReconstructionRecord> rec;
   if (!in.reconstruct_json.empty()) rec = ReadReconstructionRecord(in.reconstruct_json);
+  // The rig: the one given, else the one the reconstruction used when it is still there.
+  fs::path rig_path = in.rig_yaml;
+  if (rig_path.empty() && rec && !rec->rig.empty() && fs::is_regular_file(rec->rig)) rig_path = rec->rig;
   std::optional<core::Rig> rig;
-  if (!in.rig_yaml.empty()) rig = core::ReadRig(in.rig_yaml);
+  if (!rig_path.empty()) rig = core::ReadRig(rig_path);
   const Job& job = in.job;
   const SeverityRanks ranks = Ranks(a);
 
@@ -495,7 +498,7 @@ Document BuildDocument(const ReportInputs& in) {
   if (!a.spots.empty()) summary.blocks.push_back(SpotTable(a, ranks));
   doc.sections.push_back(summary);
   doc.sections.push_back(InspectionSection(job, rig ? &*rig : nullptr));
-  doc.sections.push_back(EquipmentSection(job, rig ? &*rig : nullptr, in.rig_yaml));
+  doc.sections.push_back(EquipmentSection(job, rig ? &*rig : nullptr, rig_path));
   doc.sections.push_back(ScanSection(a, rec));
   doc.sections.push_back(OverviewSection(a));
   for (Section& s : SpotSections(a, ranks)) doc.sections.push_back(std::move(s));

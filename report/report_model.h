@@ -19,7 +19,8 @@ namespace hw::report {
 struct ReportInputs {
   std::filesystem::path analyze_json;      // required; images are relative to its folder
   std::filesystem::path reconstruct_json;  // "" = no scan statistics section content
-  std::filesystem::path rig_yaml;          // "" = no equipment figures from the rig
+  // "" = the rig reconstruct.json names, if that file exists; else no rig figures.
+  std::filesystem::path rig_yaml;
   // The model the analysis measured, for the HTML's 3D view; "" = no 3D view.
   std::filesystem::path model_ply;
   Job job;
