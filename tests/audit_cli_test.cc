@@ -163,6 +163,10 @@ TEST(AuditCli, ReportOpensOfflineInChromiumWith3dView) {
   EXPECT_NE(page.dom.find("data-hw-viewer=\"rendered\""), std::string::npos) << page.dom.substr(0, 400);
   EXPECT_EQ(page.dom.find("data-hw-csp-violations"), std::string::npos) << "the page tried a forbidden request";
   EXPECT_EQ(page.dom.find("data-hw-injected"), std::string::npos) << "the job file's script ran";
+  // The markup is in the page as text (serialised back escaped), in the cover and the footer.
+  EXPECT_NE(page.dom.find("&lt;script&gt;document.documentElement.dataset.hwInjected=1&lt;/script&gt;ACME &amp; Sons"),
+            std::string::npos);
+  EXPECT_NE(page.dom.find("&lt;/p&gt;&lt;img src=x onerror=alert(1)&gt;&lt;p&gt; 100% sure"), std::string::npos);
   ASSERT_FALSE(page.screenshot_png.empty()) << page.reason;
   // Opened full-window (#view=full), the 3D view fills the screenshot. An empty canvas is
   // flat (variance ≈ 0); the plate on the iron palette with its hot disc is not.
@@ -227,6 +231,10 @@ TEST(AuditCli, BadInputsAreOneLineAndLeaveNoReport) {
   ASSERT_NE(error_at, std::string::npos) << r.output;
   EXPECT_NE(r.output.find((folder / "file").string(), error_at), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find('\n', error_at), r.output.size() - 1) << r.output;
+  r = Heatwave("audit " + ThermalScan().string() + job + " --out " + (folder / "file").string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << r.output;  // before any stage: no progress line
+  EXPECT_NE(r.output.find((folder / "file").string()), std::string::npos) << r.output;
   // A non-empty audit folder without --overwrite, and bad options.
   r = Heatwave("audit " + ThermalScan().string() + job + " --out " + analysis.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
