@@ -1,6 +1,7 @@
 #pragma once
 
-// Test support for align_test and compare_test: an asymmetric scene (a room corner — a
+// Test support for align_test and compare_test (and the analyze and report CLI tests' plate):
+// an asymmetric scene (a room corner — a
 // 4 m × 3 m floor and two 2.5 m walls — with a box and a cylinder on the floor),
 // tessellated at a chosen edge length, turned into a ThermalMesh after an optional rigid
 // transform, vertex noise, temperature field and face cut.
@@ -128,6 +129,36 @@ inline Eigen::Matrix<double, 6, 1> PoseError(const Eigen::Isometry3d& truth, con
   Eigen::Matrix<double, 6, 1> x;
   x << aa.angle() * aa.axis(), E.translation();
   return x;
+}
+
+// A 1 m plate (z = 0, seen from +z) at 20 °C on a 1 cm grid with a 20 cm hot disc at 50 °C
+// (a smooth 4 mm logistic edge), red on its left half: a spot whose area is π (0.1 m)² at
+// the half-ΔT boundary.
+inline core::PlyMesh HotDiscPlate(bool with_temperature = true) {
+  const int n = 100;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> t;
+  std::vector<core::Rgb8> colours;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = -0.5 + 0.01 * i, y = -0.5 + 0.01 * j;
+      points.emplace_back(x, y, 0);
+      t.push_back(20 + 30 / (1 + std::exp((std::hypot(x, y) - 0.1) / 0.004)));
+      colours.emplace_back(x < 0 ? 200 : 90, 90, 90);
+    }
+  }
+  core::PlyMesh ply;
+  ply.SetPositions(points);
+  if (with_temperature) ply.AddProperty("temperature_c", core::PlyType::kFloat32, t);
+  ply.SetColors(colours);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i;
+      ply.faces.emplace_back(a, a + 1, a + n + 2);
+      ply.faces.emplace_back(a, a + n + 2, a + n + 1);
+    }
+  }
+  return ply;
 }
 
 }  // namespace hw::analyze::test

@@ -3,12 +3,11 @@
 // Test support for report/ tests: a real analysis (analyze::Analyze on a plate with a hot
 // disc, small images) to build reports from, and a job.
 
-#include <cmath>
 #include <filesystem>
 #include <string>
-#include <vector>
 
 #include "analyze/analyzer.h"
+#include "analyze/test_scene.h"
 #include "core/ply.h"
 #include "report/job.h"
 
@@ -19,33 +18,10 @@ struct PlateAnalysis {
   analyze::AnalyzeResult result;
 };
 
-// A 1 m plate (z = 0, seen from +z) at 20 °C on a 1 cm grid with a 20 cm hot disc at 50 °C
-// (smooth 4 mm edge), red on its left half; written to folder/model.ply and analysed into
+// analyze::test::HotDiscPlate written to folder/model.ply and analysed into
 // folder/analysis with 160 × 120 images (one overview and the close-up).
 inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder) {
-  const int n = 100;
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> t;
-  std::vector<core::Rgb8> colours;
-  for (int j = 0; j <= n; ++j) {
-    for (int i = 0; i <= n; ++i) {
-      const double x = -0.5 + 0.01 * i, y = -0.5 + 0.01 * j;
-      points.emplace_back(x, y, 0);
-      t.push_back(20 + 30 / (1 + std::exp((std::hypot(x, y) - 0.1) / 0.004)));
-      colours.emplace_back(x < 0 ? 200 : 90, 90, 90);
-    }
-  }
-  core::PlyMesh ply;
-  ply.SetPositions(points);
-  ply.AddProperty("temperature_c", core::PlyType::kFloat32, t);
-  ply.SetColors(colours);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const int a = j * (n + 1) + i;
-      ply.faces.emplace_back(a, a + 1, a + n + 2);
-      ply.faces.emplace_back(a, a + n + 2, a + n + 1);
-    }
-  }
+  const core::PlyMesh ply = analyze::test::HotDiscPlate();
   std::filesystem::create_directories(folder);
   PlateAnalysis out;
   out.model_ply = folder / "model.ply";

@@ -1,7 +1,5 @@
 #include "report/viewer_embed.h"
 
-#include <png.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +10,7 @@
 
 #include "analyze/srgb.h"
 #include "report/browser_check.h"
+#include "report/screenshot_test_support.h"
 
 namespace hw::report {
 namespace {
@@ -200,29 +199,6 @@ TEST(ViewerHtml, StringsCannotCloseTheScript) {
   EXPECT_NE(html.find("Copyright \xC2\xA9 2010-2026 three.js authors"), std::string::npos);
 }
 
-// Variance of the grey level over a rectangle of an 8-bit RGB(A) PNG.
-double PixelVariance(const std::filesystem::path& png_path, int x0, int y0, int x1, int y1) {
-  png_image image{};
-  image.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&image, png_path.c_str())) return -1;
-  image.format = PNG_FORMAT_GRAY;
-  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(image));
-  if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) return -1;
-  double sum = 0, sum2 = 0;
-  int count = 0;
-  for (int y = y0; y < std::min<int>(y1, static_cast<int>(image.height)); ++y) {
-    for (int x = x0; x < std::min<int>(x1, static_cast<int>(image.width)); ++x) {
-      const double g = pixels[static_cast<size_t>(y) * image.width + static_cast<size_t>(x)];
-      sum += g;
-      sum2 += g * g;
-      ++count;
-    }
-  }
-  if (count == 0) return -1;
-  const double mean = sum / count;
-  return sum2 / count - mean * mean;
-}
-
 // The fragment in a minimal page with the report's CSP, opened in headless Chromium: the
 // view renders with no CSP violation, the screenshot shows the model, and the marker label
 // and anchor that try to inject a script stay text.
@@ -250,7 +226,7 @@ TEST(ViewerHtml, RendersInHeadlessChromium) {
   ASSERT_FALSE(result.screenshot_png.empty()) << result.reason;
   // The canvas spans the page's top 560 px; a flat page has variance 0, the grey
   // background alone too: the lit sphere's palette gives a large one.
-  const double variance = PixelVariance(result.screenshot_png, 0, 40, 800, 560);
+  const double variance = test::GreyVariance(result.screenshot_png, 0, 40, 800, 560);
   EXPECT_GT(variance, 100.0);
   std::filesystem::remove_all(result.screenshot_png.parent_path());
   std::filesystem::remove_all(folder);

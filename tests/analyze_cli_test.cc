@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/atomic_file.h"
+#include "analyze/test_scene.h"
 #include "core/ply.h"
 #include "tests/support.h"
 
@@ -20,35 +21,7 @@ Result Heatwave(const std::string& args) {
   return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
 }
 
-// A 1 m plate (z = 0, seen from +z) at 20 °C, 1 cm grid, with a 20 cm hot disc at 50 °C
-// (a smooth 1 cm edge) and red colour on its left half.
-hw::core::PlyMesh Plate(bool with_temperature = true) {
-  const int n = 100;
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> t;
-  std::vector<hw::core::Rgb8> colours;
-  for (int j = 0; j <= n; ++j) {
-    for (int i = 0; i <= n; ++i) {
-      const double x = -0.5 + 0.01 * i, y = -0.5 + 0.01 * j;
-      points.emplace_back(x, y, 0);
-      const double d = std::hypot(x, y) - 0.1;
-      t.push_back(20 + 30 / (1 + std::exp(d / 0.004)));
-      colours.emplace_back(x < 0 ? 200 : 90, 90, 90);
-    }
-  }
-  hw::core::PlyMesh ply;
-  ply.SetPositions(points);
-  if (with_temperature) ply.AddProperty("temperature_c", hw::core::PlyType::kFloat32, t);
-  ply.SetColors(colours);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const int a = j * (n + 1) + i;
-      ply.faces.emplace_back(a, a + 1, a + n + 2);
-      ply.faces.emplace_back(a, a + n + 2, a + n + 1);
-    }
-  }
-  return ply;
-}
+hw::core::PlyMesh Plate(bool with_temperature = true) { return hw::analyze::test::HotDiscPlate(with_temperature); }
 
 // Small images so the test stays fast.
 const std::string kConfig =

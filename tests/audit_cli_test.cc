@@ -7,7 +7,6 @@
 
 #include <gtest/gtest.h>
 
-#include <png.h>
 #include <unistd.h>
 
 #include "core/atomic_file.h"
@@ -15,6 +14,7 @@
 #include "report/browser_check.h"
 #include "report/report_model.h"
 #include "report/report_test_support.h"
+#include "report/screenshot_test_support.h"
 #include "tests/support.h"
 
 namespace {
@@ -122,27 +122,6 @@ TEST(AuditCli, ReportIsByteIdenticalAndCarriesTheAnalysisNumbers) {
       << "the creation date comes from the job, not the clock\n" << info.output;
 }
 
-// Variance of the grey level over the rows [y0, y1) of an 8-bit PNG; -1 when unreadable.
-double RowsVariance(const fs::path& png_path, int y0, int y1) {
-  png_image image{};
-  image.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&image, png_path.c_str())) return -1;
-  image.format = PNG_FORMAT_GRAY;
-  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(image));
-  if (!png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr)) return -1;
-  double sum = 0, sum2 = 0;
-  int count = 0;
-  for (int y = y0; y < std::min<int>(y1, static_cast<int>(image.height)); ++y) {
-    for (uint32_t x = 0; x < image.width; ++x) {
-      const double g = pixels[static_cast<size_t>(y) * image.width + x];
-      sum += g;
-      sum2 += g * g;
-      ++count;
-    }
-  }
-  return count == 0 ? -1 : sum2 / count - (sum / count) * (sum / count);
-}
-
 // The whole report opened in headless Chromium with the network blocked: the 3D view
 // renders with no Content-Security-Policy violation, its canvas is not blank, and the
 // hostile job's script never ran.
@@ -170,7 +149,7 @@ TEST(AuditCli, ReportOpensOfflineInChromiumWith3dView) {
   ASSERT_FALSE(page.screenshot_png.empty()) << page.reason;
   // Opened full-window (#view=full), the 3D view fills the screenshot. An empty canvas is
   // flat (variance ≈ 0); the plate on the iron palette with its hot disc is not.
-  EXPECT_GT(RowsVariance(page.screenshot_png, 0, 800), 100.0);
+  EXPECT_GT(hw::report::test::GreyVariance(page.screenshot_png, 0, 0, 1000, 800), 100.0);
   fs::remove_all(page.screenshot_png.parent_path());
 }
 
