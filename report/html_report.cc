@@ -1,5 +1,6 @@
 #include "report/html_report.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -38,6 +39,8 @@ dl.kv dd { margin: 0; white-space: pre-line; }
 table { border-collapse: collapse; width: 100%; margin: 12px 0 4px; font-size: 14px; }
 th { text-align: left; border-bottom: 2px solid var(--ink); padding: 4px 8px; }
 td { border-bottom: 1px solid var(--rule); padding: 4px 8px; vertical-align: top; white-space: pre-line; }
+td:first-child { white-space: nowrap; }
+.bar-spacer { height: 38px; }  /* a .bar with its border and margins */
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tbody tr:nth-child(even) { background: var(--bg-alt); }
 .swatch { display: inline-block; width: 0.8em; height: 0.8em; border-radius: 2px; margin-right: 0.4em;
@@ -111,13 +114,18 @@ struct Renderer {
   std::string out;
   int images = 0;
 
-  void Figure(const report::Figure& f) {
+  // spacer: a figure without a colour bar in a grid with bars keeps its caption level.
+  void Figure(const report::Figure& f, bool spacer = false) {
     const std::string png = core::ReadFile(f.png, kMaxFigureBytes);
     if (png.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0) throw core::InputError(f.png, "not a PNG file");
     ++images;
     out += "<figure><img alt=\"" + HtmlEscape(f.caption) + "\" width=\"" + std::to_string(f.width_px) +
            "\" height=\"" + std::to_string(f.height_px) + "\" src=\"data:image/png;base64," + core::Base64(png) + "\">";
-    if (f.key) out += ColourBar(*f.key);
+    if (f.key) {
+      out += ColourBar(*f.key);
+    } else if (spacer) {
+      out += "<div class=\"bar-spacer\"></div>";
+    }
     out += "<figcaption>" + HtmlEscape(f.caption) + "</figcaption></figure>\n";
   }
 
@@ -157,7 +165,8 @@ struct Renderer {
 
   void Block(const FigureGrid& g) {
     out += StringPrintf("<div class=\"grid\" style=\"grid-template-columns:repeat(%d,1fr)\">\n", std::max(1, g.columns));
-    for (const report::Figure& f : g.figures) Figure(f);
+    const bool any_key = std::any_of(g.figures.begin(), g.figures.end(), [](const report::Figure& f) { return f.key.has_value(); });
+    for (const report::Figure& f : g.figures) Figure(f, any_key);
     out += "</div>\n";
     if (!g.caption.empty()) out += "<p class=\"caption\">" + HtmlEscape(g.caption) + "</p>\n";
   }

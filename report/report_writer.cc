@@ -10,7 +10,7 @@
 namespace hw::report {
 
 std::string ReportWriteOptions::Check() const {
-  if (!html && !pdf) return "html, pdf: at least one form must be written";
+  if (!html && !pdf) return "html, pdf (--no-html, --no-pdf): at least one of report.html and report.pdf must be written";
   if (const std::string p = pdf_options.Check(); !p.empty()) return "pdf." + p;
   if (const std::string p = viewer.Check(); !p.empty()) return "viewer." + p;
   return "";
