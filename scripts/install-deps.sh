@@ -24,6 +24,8 @@ packages=(
   # report: PDF and images (Cairo + Pango), analyze.json / reconstruct.json reading,
   # decimation of the model embedded in the HTML report's 3D view
   libcairo2-dev libpango1.0-dev nlohmann-json3-dev libmeshoptimizer-dev zlib1g-dev
+  # report: the PDF's typeface (embedded as a subset)
+  fonts-dejavu-core
   # tests
   libgtest-dev libgmock-dev
   # report tests: the PDF checked with pdftotext / pdffonts / pdfinfo, the HTML opened in
