@@ -122,6 +122,14 @@ struct Target {
   std::string Check() const;
 };
 
+// Every corner a detector of `target` must find, in the TARGET frame (metres, z = 0: x along
+// the columns, y down the rows, z into the target), index = corner id: chessboard inner
+// corners row-major; square_grid 4 per hole (holes row-major), clockwise from the top-left
+// seen from the front; aprilgrid 4 per tag (tags in id order), in libapriltag's order
+// bottom-left, bottom-right, top-right, top-left. The full convention, with a figure of each
+// target, is in fixtures/calibration_targets.h. Asserts target.Check() is empty.
+std::vector<Eigen::Vector3d> TargetCorners(const Target& target);
+
 // Strict like ReadRig. pitch_m is required for square_grid and aprilgrid and an error for
 // chessboard; family is required for aprilgrid only.
 Target ReadTarget(const std::filesystem::path& path);

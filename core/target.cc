@@ -141,4 +141,38 @@ void WriteTarget(const fs::path& path, const Target& target) {
   WriteFileAtomically(path, out);
 }
 
+std::vector<Eigen::Vector3d> TargetCorners(const Target& target) {
+  assert(target.Check().empty());
+  std::vector<Eigen::Vector3d> corners;
+  const double s = target.square_m;
+  if (target.type == TargetType::kChessboard) {
+    corners.reserve(static_cast<size_t>(target.rows) * target.cols);
+    for (int r = 0; r < target.rows; ++r) {
+      for (int c = 0; c < target.cols; ++c) corners.emplace_back(c * s, r * s, 0.0);
+    }
+    return corners;
+  }
+  const double p = target.pitch_m;
+  corners.reserve(4 * static_cast<size_t>(target.rows) * target.cols);
+  for (int r = 0; r < target.rows; ++r) {
+    for (int c = 0; c < target.cols; ++c) {
+      const double x0 = c * p, y0 = r * p;
+      if (target.type == TargetType::kSquareGrid) {
+        // Clockwise seen from the front: TL, TR, BR, BL.
+        corners.emplace_back(x0, y0, 0.0);
+        corners.emplace_back(x0 + s, y0, 0.0);
+        corners.emplace_back(x0 + s, y0 + s, 0.0);
+        corners.emplace_back(x0, y0 + s, 0.0);
+      } else {
+        // libapriltag's order for an upright tag: BL, BR, TR, TL.
+        corners.emplace_back(x0, y0 + s, 0.0);
+        corners.emplace_back(x0 + s, y0 + s, 0.0);
+        corners.emplace_back(x0 + s, y0, 0.0);
+        corners.emplace_back(x0, y0, 0.0);
+      }
+    }
+  }
+  return corners;
+}
+
 }  // namespace hw::core
