@@ -19,17 +19,17 @@ cv::Mat Stretch(const cv::Mat& image) {
   image.convertTo(f, CV_32F);
   std::vector<float> values(f.begin<float>(), f.end<float>());
   values.erase(std::remove_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); }), values.end());
-  float lo = 0, hi = 1;
+  double lo = 0, hi = 1;
   if (!values.empty()) {
     const size_t a = values.size() / 100, b = values.size() - 1 - values.size() / 100;
     std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(a), values.end());
-    lo = values[a];
+    lo = static_cast<double>(values[a]);
     std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(b), values.end());
-    hi = values[b];
+    hi = static_cast<double>(values[b]);
   }
   if (!(hi > lo)) hi = lo + 1;
   cv::Mat grey;
-  const double a = 255.0 / (static_cast<double>(hi) - lo);
+  const double a = 255.0 / (hi - lo);
   f.convertTo(grey, CV_8U, a, -a * lo);
   cv::Mat bgr;
   cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
