@@ -80,7 +80,9 @@ void Orient(Hole& h) {
   const std::array<cv::Point2d, 4> candidates = {a, -a, b, -b};
   int best = 0;
   for (int k = 1; k < 4; ++k) {
-    const auto rightness = [&](int i) { return candidates[i].x / std::max(1e-9, cv::norm(candidates[i])); };
+    const auto rightness = [&](int i) {
+      return candidates[i].x / std::max(1e-9, cv::norm(candidates[i]));
+    };
     if (rightness(k) > rightness(best)) best = k;
   }
   h.u = candidates[best];
@@ -126,7 +128,8 @@ void FitContourLines(Hole& h) {
         best = k;
       }
     }
-    if (best >= 0 && best_d < 2.0) side_points[best].push_back(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)));
+    if (best >= 0 && best_d < 2.0)
+      side_points[best].push_back(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)));
   }
   std::array<cv::Point2d, 4> point, dir;
   for (int k = 0; k < 4; ++k) {
@@ -200,7 +203,8 @@ bool RefineWithProfiles(const cv::Mat& f, Hole& h) {
   Quad out;
   for (int k = 0; k < 4; ++k) {
     if (!Intersect(point[(k + 3) % 4], dir[(k + 3) % 4], point[k], dir[k], &out[k])) return false;
-    if (cv::norm(out[k] - h.corners[k]) > std::max(2.0, 0.3 * cv::norm(h.corners[k] - h.centre))) return false;
+    if (cv::norm(out[k] - h.corners[k]) > std::max(2.0, 0.3 * cv::norm(h.corners[k] - h.centre)))
+      return false;
   }
   h.corners = out;
   return true;
@@ -228,7 +232,8 @@ std::vector<Hole> FindHoles(const cv::Mat& f, bool bright, const SquareGridOptio
       const double area = cv::contourArea(contour);
       if (area < options.min_hole_area_px || area > 0.25 * static_cast<double>(f.total())) continue;
       const cv::Rect box = cv::boundingRect(contour);
-      if (box.x <= 1 || box.y <= 1 || box.br().x >= f.cols - 1 || box.br().y >= f.rows - 1) continue;
+      if (box.x <= 1 || box.y <= 1 || box.br().x >= f.cols - 1 || box.br().y >= f.rows - 1)
+        continue;
       std::vector<cv::Point> hull;
       cv::convexHull(contour, hull);
       if (area < 0.8 * cv::contourArea(hull)) continue;
@@ -242,7 +247,10 @@ std::vector<Hole> FindHoles(const cv::Mat& f, bool bright, const SquareGridOptio
       // Most of the outline lies on the polygon's sides (a disc's arcs bulge away from its
       // chords; a blurred square only rounds its corners).
       int on_sides = 0;
-      for (const cv::Point& q : contour) on_sides += std::abs(cv::pointPolygonTest(poly, cv::Point2f(static_cast<float>(q.x), static_cast<float>(q.y)), true)) <= 1.0;
+      for (const cv::Point& q : contour)
+        on_sides +=
+            std::abs(cv::pointPolygonTest(
+                poly, cv::Point2f(static_cast<float>(q.x), static_cast<float>(q.y)), true)) <= 1.0;
       if (on_sides < 0.6 * static_cast<double>(contour.size())) continue;
       Hole h;
       for (int k = 0; k < 4; ++k) h.corners[k] = cv::Point2d(poly[k].x, poly[k].y);
@@ -271,7 +279,8 @@ std::vector<Hole> FindHoles(const cv::Mat& f, bool bright, const SquareGridOptio
 
 // Grid coordinates (column, row) of the holes connected to holes[seed] through
 // neighbours one pitch apart along their own axes (perspective varies slowly).
-std::map<int, std::pair<int, int>> GrowGrid(const std::vector<Hole>& holes, int seed, double pitch_over_side) {
+std::map<int, std::pair<int, int>> GrowGrid(const std::vector<Hole>& holes, int seed,
+                                            double pitch_over_side) {
   std::map<int, std::pair<int, int>> cell{{seed, {0, 0}}};
   std::map<std::pair<int, int>, int> taken{{{0, 0}, seed}};
   std::queue<int> todo;
@@ -292,7 +301,8 @@ std::map<int, std::pair<int, int>> GrowGrid(const std::vector<Hole>& holes, int 
       const double ra = std::round(a), rb = std::round(b);
       if (std::abs(a - ra) > 0.3 || std::abs(b - rb) > 0.3) continue;
       if (std::abs(ra) > 1 || std::abs(rb) > 1 || (ra == 0 && rb == 0)) continue;
-      const std::pair<int, int> c = {cell[i].first + static_cast<int>(ra), cell[i].second + static_cast<int>(rb)};
+      const std::pair<int, int> c = {cell[i].first + static_cast<int>(ra),
+                                     cell[i].second + static_cast<int>(rb)};
       if (taken.count(c)) continue;
       cell[j] = c;
       taken[c] = j;
@@ -368,7 +378,8 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
       for (int r0 = lo_r; r0 <= std::max(lo_r, hi_r - target.rows + 1); ++r0) {
         int count = 0;
         for (const auto& [i, c] : best.cell) {
-          count += c.first >= c0 && c.first < c0 + target.cols && c.second >= r0 && c.second < r0 + target.rows;
+          count += c.first >= c0 && c.first < c0 + target.cols && c.second >= r0 &&
+                   c.second < r0 + target.rows;
         }
         if (count > best_count) {
           best_count = count;
@@ -379,7 +390,8 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
     }
     std::erase_if(best.cell, [&](const auto& entry) {
       const auto& c = entry.second;
-      return c.first < best_c || c.first >= best_c + target.cols || c.second < best_r || c.second >= best_r + target.rows;
+      return c.first < best_c || c.first >= best_c + target.cols || c.second < best_r ||
+             c.second >= best_r + target.rows;
     });
   }
   int min_c = 1 << 30, max_c = -(1 << 30), min_r = 1 << 30, max_r = -(1 << 30);
@@ -424,9 +436,11 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   // Levels of the holes and the plate (bar between two holes), for telling plate apart.
   std::vector<double> hole_levels, plate_levels;
   for (const auto& [i, c] : best.cell) {
-    const cv::Point2d centre = project(corner_in_target(c.first - min_c, c.second - min_r, 0) + cv::Point2d(s / 2, s / 2));
+    const cv::Point2d centre =
+        project(corner_in_target(c.first - min_c, c.second - min_r, 0) + cv::Point2d(s / 2, s / 2));
     hole_levels.push_back(Sample(f, centre.x, centre.y));
-    const cv::Point2d bar = project(corner_in_target(c.first - min_c, c.second - min_r, 0) + cv::Point2d(s + (p - s) / 2, s / 2));
+    const cv::Point2d bar = project(corner_in_target(c.first - min_c, c.second - min_r, 0) +
+                                    cv::Point2d(s + (p - s) / 2, s / 2));
     plate_levels.push_back(Sample(f, bar.x, bar.y));
   }
   const auto median = [](std::vector<double> v) {
@@ -438,11 +452,14 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   // its middle is not at the holes' level, or its corners are off the lattice.
   std::erase_if(best.cell, [&](const auto& entry) {
     const Hole& h = best.holes[entry.first];
-    const double rel = (Sample(f, h.centre.x, h.centre.y) - hole_level) / (plate_level - hole_level);
+    const double rel =
+        (Sample(f, h.centre.x, h.centre.y) - hole_level) / (plate_level - hole_level);
     const int col = entry.second.first - min_c, row = entry.second.second - min_r;
-    const double pitch_px = cv::norm(project(corner_in_target(col + 1, row, 0)) - project(corner_in_target(col, row, 0)));
+    const double pitch_px = cv::norm(project(corner_in_target(col + 1, row, 0)) -
+                                     project(corner_in_target(col, row, 0)));
     double worst = 0;
-    for (int k = 0; k < 4; ++k) worst = std::max(worst, cv::norm(h.corners[k] - project(corner_in_target(col, row, k))));
+    for (int k = 0; k < 4; ++k)
+      worst = std::max(worst, cv::norm(h.corners[k] - project(corner_in_target(col, row, k))));
     return rel > 0.35 || worst > 0.15 * pitch_px;
   });
   if (best.cell.empty()) {
@@ -486,7 +503,8 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
           const cv::Point2d o = corner_in_target(lc - min_c, lr - min_r, 0);
           std::vector<cv::Point2d> inner, ring;
           for (int a = 0; a < 3; ++a) {
-            for (int b = 0; b < 3; ++b) inner.push_back(o + cv::Point2d((0.3 + 0.2 * a) * s, (0.3 + 0.2 * b) * s));
+            for (int b = 0; b < 3; ++b)
+              inner.push_back(o + cv::Point2d((0.3 + 0.2 * a) * s, (0.3 + 0.2 * b) * s));
             const double t = (0.3 + 0.2 * a) * s;
             ring.push_back(o + cv::Point2d(-bar, t));
             ring.push_back(o + cv::Point2d(s + bar, t));
@@ -502,14 +520,16 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
           if (inner_rel > 0.35) continue;
           ++pl.score;
           Hole predicted;
-          for (int k = 0; k < 4; ++k) predicted.corners[k] = project(corner_in_target(lc - min_c, lr - min_r, k));
+          for (int k = 0; k < 4; ++k)
+            predicted.corners[k] = project(corner_in_target(lc - min_c, lr - min_r, k));
           predicted.centre = project(o + cv::Point2d(s / 2, s / 2));
           const double pitch_px = cv::norm(project(o + cv::Point2d(p, 0)) - project(o));
           const Hole* candidate = nullptr;
           for (int j = 0; j < static_cast<int>(best.holes.size()) && !candidate; ++j) {
             if (best.cell.count(j)) continue;
             bool near = true;
-            for (int k = 0; k < 4; ++k) near &= cv::norm(best.holes[j].corners[k] - predicted.corners[k]) < 0.2 * pitch_px;
+            for (int k = 0; k < 4; ++k)
+              near &= cv::norm(best.holes[j].corners[k] - predicted.corners[k]) < 0.2 * pitch_px;
             if (near) candidate = &best.holes[j];
           }
           if (candidate) {
@@ -522,26 +542,49 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
       placements.push_back(std::move(pl));
     }
   }
-  std::sort(placements.begin(), placements.end(), [](const Placement& a, const Placement& b) { return a.score > b.score; });
+  std::sort(placements.begin(), placements.end(),
+            [](const Placement& a, const Placement& b) { return a.score > b.score; });
   if (placements.size() > 1 && placements[0].score == placements[1].score) {
     detection.reason = 2 * static_cast<int>(best.cell.size()) < holes_total
-        ? "found " + std::to_string(best.cell.size()) + " of " + std::to_string(holes_total) + " holes, fewer than half"
-        : "the holes found (" + std::to_string(span_r) + " rows x " + std::to_string(span_c) +
-                       " columns) fit several places in the grid";
+                           ? "found " + std::to_string(best.cell.size()) + " of " +
+                                 std::to_string(holes_total) + " holes, fewer than half"
+                           : "the holes found (" + std::to_string(span_r) + " rows x " +
+                                 std::to_string(span_c) +
+                                 " columns) fit several places in the grid";
     return detection;
   }
   const Placement& place = placements[0];
   std::map<int, const Hole*> by_id;
   for (const auto& [i, c] : best.cell) {
-    by_id[(c.second - min_r + place.off_r) * target.cols + (c.first - min_c + place.off_c)] = &best.holes[i];
+    by_id[(c.second - min_r + place.off_r) * target.cols + (c.first - min_c + place.off_c)] =
+        &best.holes[i];
   }
   for (const auto& [id, hole] : place.recovered) by_id[id] = &hole;
 
+  // The homography through the contour corners of every hole placed: where a hole's
+  // refinement starts again when its contour corners were too far off for it.
+  std::vector<cv::Point2d> contour_plane, contour_pixels;
+  for (const auto& [id, hole] : by_id) {
+    for (int k = 0; k < 4; ++k) {
+      contour_plane.push_back(corner_in_target(id % target.cols, id / target.cols, k));
+      contour_pixels.push_back(hole->corners[k]);
+    }
+  }
+  const cv::Mat H_contour = cv::findHomography(contour_plane, contour_pixels, 0);
   std::vector<cv::Point2d> final_plane, final_pixels;
   for (auto& [id, hole] : by_id) {
     Hole h = *hole;
-    // Twice: the second pass samples its profiles across the refined sides.
-    if (options.refine && RefineWithProfiles(f, h)) RefineWithProfiles(f, h);
+    if (options.refine && !RefineWithProfiles(f, h) && !H_contour.empty()) {
+      std::vector<cv::Point2d> plane_corners, predicted;
+      for (int k = 0; k < 4; ++k)
+        plane_corners.push_back(corner_in_target(id % target.cols, id / target.cols, k));
+      cv::perspectiveTransform(plane_corners, predicted, H_contour);
+      Hole again = h;
+      for (int k = 0; k < 4; ++k) again.corners[k] = predicted[static_cast<size_t>(k)];
+      if (RefineWithProfiles(f, again)) h = again;
+    }
+    // A second pass samples its profiles across the refined sides.
+    if (options.refine) RefineWithProfiles(f, h);
     for (int k = 0; k < 4; ++k) {
       detection.corner_ids.push_back(4 * id + k);
       detection.pixels.emplace_back(h.corners[k].x, h.corners[k].y);
@@ -557,16 +600,18 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   std::vector<cv::Point2d> predicted;
   cv::perspectiveTransform(final_plane, predicted, H_final);
   double sum2 = 0;
-  for (size_t k = 0; k < predicted.size(); ++k) sum2 += std::pow(cv::norm(predicted[k] - final_pixels[k]), 2);
+  for (size_t k = 0; k < predicted.size(); ++k)
+    sum2 += std::pow(cv::norm(predicted[k] - final_pixels[k]), 2);
   detection.homography_rms_px = std::sqrt(sum2 / static_cast<double>(predicted.size()));
   if (2 * static_cast<int>(by_id.size()) < holes_total) {
-    detection.reason = "found " + std::to_string(by_id.size()) + " of " + std::to_string(holes_total) +
-                       " holes, fewer than half";
+    detection.reason = "found " + std::to_string(by_id.size()) + " of " +
+                       std::to_string(holes_total) + " holes, fewer than half";
     return detection;
   }
   if (detection.homography_rms_px > options.max_homography_rms_px) {
-    detection.reason = "the corners fit a homography to " + std::to_string(detection.homography_rms_px) +
-                       " px RMS, more than max_homography_rms_px " + std::to_string(options.max_homography_rms_px);
+    detection.reason =
+        "the corners fit a homography to " + std::to_string(detection.homography_rms_px) +
+        " px RMS, more than max_homography_rms_px " + std::to_string(options.max_homography_rms_px);
     return detection;
   }
   detection.accepted = true;
