@@ -469,7 +469,8 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
 
   // Place the lattice in the grid. A predicted hole is seen as a hole when its middle is
   // at the holes' level and the bars around it at the plate's, as plate when both are at
-  // the plate's (then the placement is wrong), else as hidden. A placement scores one per
+  // the plate's or a fifth of it is at the plate's (then the placement is wrong), else as
+  // hidden. A placement scores one per
   // hole seen beyond the lattice (then taken from the candidates, or located from its
   // predicted corners by the profile refinement) and loses two per plate seen.
   const double contrast = plate_level - hole_level;
@@ -510,6 +511,24 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
             ring.push_back(o + cv::Point2d(s + bar, t));
             ring.push_back(o + cv::Point2d(t, -bar));
             ring.push_back(o + cv::Point2d(t, s + bar));
+          }
+          // Plate over a fifth of the predicted hole (a row or column of the samples): the
+          // grid's edge (its plate margin, wider than a bar) where the placement puts a hole.
+          std::vector<cv::Point2d> spread, spread_px;
+          for (int a = 0; a < 5; ++a) {
+            for (int b = 0; b < 5; ++b) {
+              spread.push_back(o + cv::Point2d((0.2 + 0.15 * a) * s, (0.2 + 0.15 * b) * s));
+            }
+          }
+          cv::perspectiveTransform(spread, spread_px, H);
+          int plate_points = 0;
+          for (const cv::Point2d& q : spread_px) {
+            if (q.x < 0 || q.y < 0 || q.x > f.cols - 1 || q.y > f.rows - 1) continue;
+            plate_points += (Sample(f, q.x, q.y) - hole_level) / contrast > 0.75;
+          }
+          if (5 * plate_points >= static_cast<int>(spread.size())) {
+            pl.score -= 2;
+            continue;
           }
           const double inner_rel = mean_level(inner), ring_rel = mean_level(ring);
           if (std::isnan(inner_rel) || std::isnan(ring_rel) || ring_rel < 0.65) continue;

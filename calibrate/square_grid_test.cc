@@ -251,8 +251,8 @@ TEST(SquareGridRobustness, PolarityDepthContrastAndOcclusion) {
   EXPECT_EQ(static_cast<int>(occluded.corner_ids.size()), 4 * (holes - 1));
   EXPECT_EQ(std::count(occluded.corner_ids.begin(), occluded.corner_ids.end(), 0), 0);
 
-  // The whole left column hidden: what is left fits two places of the grid, unless the plate
-  // shows where it ends; never accepted in the wrong place.
+  // The whole left column hidden: the 3 columns left fit two places of the grid, but only
+  // one leaves no hole on the plate's right margin.
   cv::Mat column = view.thermal_c.clone();
   std::vector<cv::Point> left;
   const int last_row = session.target.rows - 1;
@@ -268,7 +268,21 @@ TEST(SquareGridRobustness, PolarityDepthContrastAndOcclusion) {
   const Detection no_column = DetectSquareGrid(column, session.target);
   std::printf("left column hidden: accepted %d, %zu corners, reason '%s'\n", no_column.accepted,
               no_column.corner_ids.size(), no_column.reason.c_str());
-  if (no_column.accepted) ExpectOrdered(no_column, view, tolerance, "left column hidden");
+  ExpectOrdered(no_column, view, tolerance, "left column hidden");
+  EXPECT_EQ(static_cast<int>(no_column.corner_ids.size()), 4 * (holes - session.target.rows));
+
+  // ... and the right margin hidden too: nothing tells the two places apart, so no guess.
+  const int cols = session.target.cols;
+  const Eigen::Vector2d top_right = view.truth[4 * (cols - 1) + 1];
+  const Eigen::Vector2d bottom_right = view.truth[4 * (cols * last_row + cols - 1) + 2];
+  const std::vector<cv::Point> right = {
+      cv::Point(static_cast<int>(top_right.x()) + 3, 0), cv::Point(column.cols - 1, 0),
+      cv::Point(column.cols - 1, column.rows - 1),
+      cv::Point(static_cast<int>(bottom_right.x()) + 3, column.rows - 1)};
+  cv::fillConvexPoly(column, right, cv::Scalar(34.0));
+  const Detection ambiguous = DetectSquareGrid(column, session.target);
+  EXPECT_FALSE(ambiguous.accepted);
+  EXPECT_NE(ambiguous.reason.find("several places"), std::string::npos) << ambiguous.reason;
 }
 
 // No target: smooth clutter and a few lone squares of several sizes.
