@@ -34,13 +34,18 @@ std::string Short(double value) {
 cv::Mat OneChannel(const cv::Mat& image) {
   if (image.channels() == 1) return image;
   cv::Mat grey;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, grey, cv::COLOR_RGB2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, grey, cv::COLOR_RGBA2GRAY);
+  // cvtColor takes 8-bit, 16-bit and float only: other depths go through float.
+  cv::Mat colour = image;
+  if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F) {
+    image.convertTo(colour, CV_MAKETYPE(CV_32F, image.channels()));
+  }
+  if (colour.channels() == 3) {
+    cv::cvtColor(colour, grey, cv::COLOR_RGB2GRAY);
+  } else if (colour.channels() == 4) {
+    cv::cvtColor(colour, grey, cv::COLOR_RGBA2GRAY);
   } else {
     std::vector<cv::Mat> planes;
-    cv::split(image, planes);
+    cv::split(colour, planes);
     cv::Mat sum = cv::Mat::zeros(image.size(), CV_64F);
     for (const cv::Mat& p : planes) cv::accumulate(p, sum);
     grey = sum / static_cast<double>(planes.size());
@@ -164,6 +169,30 @@ bool SideIsBoardEdge(const Grid& grid, const cv::Mat& blurred, const GridColours
     bright += v > mid;
   }
   return counted > 0 && bright >= 0.75 * counted;
+}
+
+// cornerSubPix on findChessboardCornersSB's corners: on the full intrinsics-chessboard
+// session (640x480, 24 views) it takes their error from 0.104 px RMS (max 0.95 px) to
+// 0.066 (max 0.19 px), on the small one from 0.060 (max 0.14) to 0.066 (max 0.16 px).
+// The window's half side is 0.6 of the smallest corner spacing (the window never reaches
+// a neighbouring corner), 2 to 7 px (7: 15x15 px, the best of 3, 5, 7 on both sessions); a
+// corner the refinement moves by more than 1 px (a fake saddle, e.g. at an occluder's
+// edge) keeps OpenCV's position.
+void RefineCorners(const cv::Mat& grey8, Grid& grid) {
+  double spacing = std::numeric_limits<double>::infinity();
+  for (int r = 0; r < grid.h; ++r) {
+    for (int c = 0; c < grid.w; ++c) {
+      if (c + 1 < grid.w) spacing = std::min(spacing, static_cast<double>(cv::norm(grid.At(r, c + 1) - grid.At(r, c))));
+      if (r + 1 < grid.h) spacing = std::min(spacing, static_cast<double>(cv::norm(grid.At(r + 1, c) - grid.At(r, c))));
+    }
+  }
+  const int half = static_cast<int>(std::clamp(std::floor(0.6 * spacing), 2.0, 7.0));
+  std::vector<cv::Point2f> refined = grid.px;
+  cv::cornerSubPix(grey8, refined, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+  for (size_t i = 0; i < refined.size(); ++i) {
+    if (cv::norm(refined[i] - grid.px[i]) <= 1.0) grid.px[i] = refined[i];
+  }
 }
 
 // The ids of `grid`'s corners in the board `target`, or nullopt with the reason.
@@ -367,6 +396,7 @@ Detection DetectChessboard(const cv::Mat& image, const core::Target& target,
     return detection;
   }
   grid.px.assign(found.ptr<cv::Point2f>(), found.ptr<cv::Point2f>() + found.total());
+  RefineCorners(grey, grid);
   std::vector<cv::Point2f> px;
   std::string reason;
   const std::optional<std::vector<int>> ids = NumberChessboard(grid, target, grey, px, reason);
