@@ -1,17 +1,16 @@
 #include "calibrate/intrinsics_solver.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <Eigen/Dense>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core.hpp>
 
 #include "calibrate/mrcal_problem.h"
 #include "core/cameramodel_io.h"
@@ -27,9 +26,8 @@ constexpr int kMaxOutlierIterations = 20;
 // in f is well within mrcal's convergence basin; fronto-parallel views give 100 % or more.
 constexpr double kMaxSeedFocalRelativeError = 0.1;
 
-void CheckInputs(int width_px, int height_px,
-                 const std::vector<ViewObservation>& views, const IntrinsicsOptions& options,
-                 int num_corners) {
+void CheckInputs(int width_px, int height_px, const std::vector<ViewObservation>& views,
+                 const IntrinsicsOptions& options, int num_corners) {
   if (const std::string problem = options.Check(); !problem.empty()) {
     throw std::invalid_argument("intrinsics options: " + problem);
   }
@@ -47,8 +45,9 @@ void CheckInputs(int width_px, int height_px,
     const ViewObservation& view = views[v];
     const std::string name = "intrinsics: view " + std::to_string(v) + ": ";
     if (view.corner_ids.size() != view.pixels.size()) {
-      throw std::invalid_argument(name + std::to_string(view.corner_ids.size()) + " corner ids but " +
-                                  std::to_string(view.pixels.size()) + " pixels");
+      throw std::invalid_argument(name + std::to_string(view.corner_ids.size()) +
+                                  " corner ids but " + std::to_string(view.pixels.size()) +
+                                  " pixels");
     }
     if (static_cast<int>(view.corner_ids.size()) < kMinCornersPerView) {
       throw std::invalid_argument(name + std::to_string(view.corner_ids.size()) +
@@ -80,8 +79,8 @@ void CheckInputs(int width_px, int height_px,
 // with K's only unknown f). A view parallel to the image plane makes both right-hand sides
 // zero (its homography carries no perspective), so a set of such views leaves a at 0 +/-
 // noise: the estimate is refused when a <= 0 or its relative standard error is too large.
-double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width_px,
-                   int height_px, const std::vector<ViewObservation>& views) {
+double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width_px, int height_px,
+                   const std::vector<ViewObservation>& views) {
   const double cx = (width_px - 1) / 2.0, cy = (height_px - 1) / 2.0;
   const double scale = 1.0 / std::max(width_px, height_px);  // keeps a near 1
   Eigen::MatrixXd A(2 * static_cast<int>(views.size()), 1);
@@ -91,7 +90,8 @@ double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width
     for (size_t k = 0; k < views[v].corner_ids.size(); ++k) {
       const Eigen::Vector3d& p = corners_target[static_cast<size_t>(views[v].corner_ids[k])];
       object.emplace_back(p.x(), p.y());
-      image.emplace_back((views[v].pixels[k].x() - cx) * scale, (views[v].pixels[k].y() - cy) * scale);
+      image.emplace_back((views[v].pixels[k].x() - cx) * scale,
+                         (views[v].pixels[k].y() - cy) * scale);
     }
     const cv::Mat H_cv = cv::findHomography(object, image, 0);
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
@@ -125,8 +125,8 @@ double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width
 }
 
 // camera_from_target of every view by PnP on the seed pinhole camera (planar IPPE).
-std::vector<mrcal_pose_t> SeedPoses(const std::vector<Eigen::Vector3d>& corners_target,
-                                    double f_px, int width_px, int height_px,
+std::vector<mrcal_pose_t> SeedPoses(const std::vector<Eigen::Vector3d>& corners_target, double f_px,
+                                    int width_px, int height_px,
                                     const std::vector<ViewObservation>& views) {
   const cv::Matx33d K(f_px, 0, (width_px - 1) / 2.0, 0, f_px, (height_px - 1) / 2.0, 0, 0, 1);
   std::vector<mrcal_pose_t> poses;
@@ -168,9 +168,9 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   const std::vector<Eigen::Vector3d> corners_target = core::TargetCorners(target);
   CheckInputs(width_px, height_px, views, options, static_cast<int>(corners_target.size()));
 
-  MrcalProblem problem(options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8
-                                                            : MRCAL_LENSMODEL_OPENCV5,
-                       width_px, height_px, corners_target, views);
+  MrcalProblem problem(
+      options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8 : MRCAL_LENSMODEL_OPENCV5,
+      width_px, height_px, corners_target, views);
   if (2 * problem.NumObservations() <= problem.NumState()) {
     throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
                                 " corners give " + std::to_string(2 * problem.NumObservations()) +

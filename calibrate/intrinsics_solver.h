@@ -4,10 +4,9 @@
 // (https://mrcal.secretsauce.net, libmrcal 2.2's C API), with the covariance of the solution
 // and mrcal's projection uncertainty.
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/camera.h"
 #include "core/rig.h"
@@ -33,22 +32,22 @@ struct IntrinsicsOptions {
   std::string Check() const;
 };
 
-struct ViewObservation {                  // one accepted detection
-  std::vector<int> corner_ids;            // into core::TargetCorners(target)
-  std::vector<Eigen::Vector2d> pixels;    // OpenCV pixel convention; same size as corner_ids
+struct ViewObservation {                // one accepted detection
+  std::vector<int> corner_ids;          // into core::TargetCorners(target)
+  std::vector<Eigen::Vector2d> pixels;  // OpenCV pixel convention; same size as corner_ids
 };
 
 struct IntrinsicsResult {
-  core::CameraModel camera;               // opencv 5 or 8; width/height as given
-  std::string mrcal_lensmodel;            // e.g. "LENSMODEL_OPENCV5"
-  std::vector<double> mrcal_intrinsics;   // mrcal's parameters: fx fy cx cy k... (= camera's)
+  core::CameraModel camera;              // opencv 5 or 8; width/height as given
+  std::string mrcal_lensmodel;           // e.g. "LENSMODEL_OPENCV5"
+  std::vector<double> mrcal_intrinsics;  // mrcal's parameters: fx fy cx cy k... (= camera's)
   std::vector<core::Rigid3d> camera_from_target;  // per view
   // RMS over all inlier corners of the residual NORM (pixels): sqrt(sum |r|^2 / N_inliers),
   // as mrcal's rms_reproj_error__pixels (sqrt(norm2(x) / (len(x) / 2))). For isotropic
   // Gaussian noise of sigma per coordinate it is about sigma * sqrt(2 (1 - Nstate / Nmeas)).
   double rms_px = 0;
-  double worst_px = 0;                    // largest residual norm of an inlier corner, pixels
-  std::vector<double> view_rms_px;        // per view, as rms_px (NaN: every corner an outlier)
+  double worst_px = 0;              // largest residual norm of an inlier corner, pixels
+  std::vector<double> view_rms_px;  // per view, as rms_px (NaN: every corner an outlier)
   // Per view, per corner (order of ViewObservation): observed - projected, pixels.
   std::vector<std::vector<Eigen::Vector2d>> residuals_px;
   std::vector<std::vector<bool>> outlier;  // per view, per corner
@@ -59,12 +58,13 @@ struct IntrinsicsResult {
   // Covariance of the whole solved state, sigma^2 (J^T J)^-1 with J the Jacobian of the
   // inlier residuals at the optimum (physical units, not mrcal's packed state). State order:
   // mrcal_intrinsics, then per view mrcal's rt of camera_from_target (Rodrigues r in rad,
-  // t in m). No regularisation term is used (mrcal's is switched off), so this is exact for
-  // the least-squares problem solved.
+  // t in m). J: the inlier corners' reprojection terms (outliers carry no information) and
+  // mrcal's regularisation terms (differentiated through mrcal_optimizer_callback), as
+  // mrcal's own covariance. The packed, scaled state of mrcal's optimiser is not used.
   Eigen::MatrixXd state_covariance;
   // Its leading block: the covariance of mrcal_intrinsics with the poses marginalised.
   Eigen::MatrixXd intrinsics_covariance;
-  double solve_seconds = 0;               // wall time of SolveIntrinsics
+  double solve_seconds = 0;  // wall time of SolveIntrinsics
 };
 
 // Solves the intrinsics of a width_px x height_px camera observing `target` in `views`.
@@ -73,7 +73,8 @@ struct IntrinsicsResult {
 // the principal point at the image centre), poses by cv::solvePnP (IPPE, planar), zero
 // distortion. Then mrcal_optimize: the target frame is mrcal's reference frame, its corners
 // fixed points; each view is one camera pose (mrcal "extrinsics", rt camera_from_target)
-// sharing one set of intrinsics; staged per options.staged; then the outlier loop.
+// sharing one set of intrinsics; staged per options.staged; then the outlier loop. mrcal's
+// regularisation is on (as in its calibration tool; opencv8 needs it).
 //
 // Throws std::invalid_argument (clear message) for invalid options or target, an image
 // size outside CameraModel's range, fewer than 3 views, a view with fewer than 4 corners

@@ -6,10 +6,9 @@
 // reference frame, every corner a fixed discrete point in it, and every view one camera pose
 // (an mrcal "extrinsics", rt camera_from_target) sharing the one set of intrinsics.
 
+#include <Eigen/Core>
 #include <array>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "calibrate/intrinsics_solver.h"
 #include "core/mrcal_c.h"
@@ -18,9 +17,9 @@ namespace hw::calibrate {
 
 // Projection of a camera-frame point with mrcal (pixels) and its Jacobians: dq/dp_cam 2x3
 // and dq/dintrinsics 2xN (may be null).
-Eigen::Vector2d MrcalProject(const mrcal_lensmodel_t& lensmodel, const std::vector<double>& intrinsics,
-                             const Eigen::Vector3d& p_cam, Eigen::Matrix<double, 2, 3>* dq_dp,
-                             Eigen::MatrixXd* dq_dintrinsics);
+Eigen::Vector2d MrcalProject(const mrcal_lensmodel_t& lensmodel,
+                             const std::vector<double>& intrinsics, const Eigen::Vector3d& p_cam,
+                             Eigen::Matrix<double, 2, 3>* dq_dp, Eigen::MatrixXd* dq_dintrinsics);
 
 // p_cam = camera_from_target(rt) p_target and dp_cam/drt, 3x6 (may be null).
 Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_target,
@@ -56,6 +55,9 @@ class MrcalProblem {
   // observed - projected of every observation; with J, d(projected)/d(state) stacked 2 rows
   // per observation (outliers included).
   std::vector<Eigen::Vector2d> Residuals(Eigen::MatrixXd* J) const;
+  // Jacobian of mrcal's regularisation measurements with respect to the intrinsics (they
+  // depend on nothing else), from mrcal_optimizer_callback's measurement vector.
+  Eigen::MatrixXd RegularizationJacobian() const;
 
   mrcal_lensmodel_t lensmodel_{};
   std::array<int, 2> imagersize_{};

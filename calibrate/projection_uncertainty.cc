@@ -30,8 +30,9 @@ std::vector<double> ProjectionUncertaintyMap(const IntrinsicsResult& result, int
   if (!mrcal_lensmodel_from_name(&lensmodel, result.mrcal_lensmodel.c_str()) ||
       mrcal_lensmodel_num_params(&lensmodel) != n_intrinsics || n_views == 0 ||
       result.state_covariance.rows() != n_state || result.state_covariance.cols() != n_state) {
-    throw std::invalid_argument("projection uncertainty: the result has no consistent "
-                                "lens model, intrinsics, poses and state_covariance");
+    throw std::invalid_argument(
+        "projection uncertainty: the result has no consistent "
+        "lens model, intrinsics, poses and state_covariance");
   }
   std::vector<mrcal_pose_t> poses;
   for (const core::Rigid3d& pose : result.camera_from_target) {
@@ -49,9 +50,9 @@ std::vector<double> ProjectionUncertaintyMap(const IntrinsicsResult& result, int
   Eigen::MatrixXd G(2, n_state);
   for (int row = 0; row < grid_rows; ++row) {
     for (int col = 0; col < grid_cols; ++col) {
-      const mrcal_point2_t q{{grid_cols > 1 ? col * (width - 1.0) / (grid_cols - 1) : (width - 1) / 2.0,
-                              grid_rows > 1 ? row * (height - 1.0) / (grid_rows - 1)
-                                            : (height - 1) / 2.0}};
+      const mrcal_point2_t q{
+          {grid_cols > 1 ? col * (width - 1.0) / (grid_cols - 1) : (width - 1) / 2.0,
+           grid_rows > 1 ? row * (height - 1.0) / (grid_rows - 1) : (height - 1) / 2.0}};
       mrcal_point3_t v{};
       const Eigen::Vector3d ray =
           mrcal_unproject(&v, &q, 1, &lensmodel, result.mrcal_intrinsics.data())
