@@ -44,11 +44,11 @@ core::CameraModel TruthCamera() {
 
 // Target poses seen by the truth camera with every corner inside the image: 0.35-0.6 m away,
 // tilted 10-40 degrees about x and y (fronto_parallel: not tilted), rolled up to 20 degrees.
-std::vector<core::Rigid3d> RandomPoses(int count, bool fronto_parallel, unsigned seed) {
-  const core::Target target = Chessboard();
+std::vector<core::Rigid3d> RandomPoses(int count, bool fronto_parallel, unsigned seed,
+                                       const core::Target& target = Chessboard()) {
   const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
-  const Eigen::Vector3d centre((target.cols - 1) * target.square_m / 2,
-                               (target.rows - 1) * target.square_m / 2, 0);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : corners) centre += p / static_cast<double>(corners.size());
   const core::CameraModel camera = TruthCamera();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
@@ -73,9 +73,12 @@ std::vector<core::Rigid3d> RandomPoses(int count, bool fronto_parallel, unsigned
   return poses;
 }
 
+// Every corner of `target` (with keep_fraction < 1: each kept with that probability, as a
+// detector missing some) projected by the truth camera, plus Gaussian noise.
 std::vector<ViewObservation> Observe(const std::vector<core::Rigid3d>& poses, double noise_px,
-                                     unsigned seed) {
-  const std::vector<Eigen::Vector3d> corners = core::TargetCorners(Chessboard());
+                                     unsigned seed, const core::Target& target = Chessboard(),
+                                     double keep_fraction = 1) {
+  const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
   const core::CameraModel camera = TruthCamera();
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0, noise_px);
@@ -83,6 +86,9 @@ std::vector<ViewObservation> Observe(const std::vector<core::Rigid3d>& poses, do
   for (const core::Rigid3d& pose : poses) {
     ViewObservation view;
     for (size_t id = 0; id < corners.size(); ++id) {
+      if (keep_fraction < 1 && std::uniform_real_distribution<double>(0, 1)(rng) > keep_fraction) {
+        continue;
+      }
       view.corner_ids.push_back(static_cast<int>(id));
       view.pixels.push_back(camera.Project(pose * corners[id]) +
                             Eigen::Vector2d(noise(rng), noise(rng)));
@@ -139,6 +145,27 @@ TEST(SolveIntrinsics, MatchesTruthWithinItsCovariance) {
   ASSERT_EQ(result.residuals_px.size(), 20u);
   EXPECT_EQ(result.residuals_px[0].size(), 54u);
   EXPECT_EQ(result.view_rms_px.size(), 20u);
+}
+
+// A square_grid target (4 corners per hole: not the regular lattice of mrcal's chessboard
+// observations) with 20 % of the corners missing in every view.
+TEST(SolveIntrinsics, SquareGridWithMissingCorners) {
+  core::Target target;
+  target.type = core::TargetType::kSquareGrid;
+  target.rows = 4;
+  target.cols = 5;
+  target.square_m = 0.03;
+  target.pitch_m = 0.06;
+  const std::vector<core::Rigid3d> poses = RandomPoses(15, false, 21, target);
+  const std::vector<ViewObservation> views = Observe(poses, kNoisePx, 22, target, 0.8);
+  const IntrinsicsResult result = SolveIntrinsics(target, 640, 480, views);
+  const Eigen::VectorXd error = result.camera.Params() - TruthCamera().Params();
+  const double chi2 = error.dot(result.intrinsics_covariance.ldlt().solve(error));
+  std::printf("  square_grid, 15 views, 80 %% of 80 corners: chi2 %.2f, sigma %.4f px\n", chi2,
+              result.observation_sigma_px);
+  EXPECT_LT(chi2, 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
+  EXPECT_NEAR(result.observation_sigma_px, kNoisePx, 0.07 * kNoisePx);  // ~1900 measurements
+  EXPECT_EQ(result.residuals_px[0].size(), views[0].corner_ids.size());
 }
 
 TEST(SolveIntrinsics, StagedAndUnstagedAgree) {
