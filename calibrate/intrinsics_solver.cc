@@ -1,0 +1,203 @@
+#include "calibrate/intrinsics_solver.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "calibrate/mrcal_problem.h"
+#include "core/cameramodel_io.h"
+#include "core/option_check.h"
+
+namespace hw::calibrate {
+namespace {
+
+constexpr int kMinViews = 3;
+constexpr int kMinCornersPerView = 4;
+constexpr int kMaxOutlierIterations = 20;
+// Largest relative standard error of the homography focal estimate accepted as a seed: 10 %
+// in f is well within mrcal's convergence basin; fronto-parallel views give 100 % or more.
+constexpr double kMaxSeedFocalRelativeError = 0.1;
+
+void CheckInputs(int width_px, int height_px, const std::vector<ViewObservation>& views,
+                 const IntrinsicsOptions& options, int num_corners) {
+  if (const std::string problem = options.Check(); !problem.empty()) {
+    throw std::invalid_argument("intrinsics options: " + problem);
+  }
+  if (width_px < 1 || width_px > core::CameraModel::kMaxSidePx || height_px < 1 ||
+      height_px > core::CameraModel::kMaxSidePx) {
+    throw std::invalid_argument("intrinsics: the image size " + std::to_string(width_px) + " x " +
+                                std::to_string(height_px) + " px is outside [1, 16384]");
+  }
+  if (static_cast<int>(views.size()) < kMinViews) {
+    throw std::invalid_argument("intrinsics: " + std::to_string(views.size()) +
+                                " views given, at least 3 are needed (with the target tilted "
+                                "differently in each) to solve a camera's intrinsics");
+  }
+  for (size_t v = 0; v < views.size(); ++v) {
+    const ViewObservation& view = views[v];
+    const std::string name = "intrinsics: view " + std::to_string(v) + ": ";
+    if (view.corner_ids.size() != view.pixels.size()) {
+      throw std::invalid_argument(name + std::to_string(view.corner_ids.size()) +
+                                  " corner ids but " + std::to_string(view.pixels.size()) +
+                                  " pixels");
+    }
+    if (static_cast<int>(view.corner_ids.size()) < kMinCornersPerView) {
+      throw std::invalid_argument(name + std::to_string(view.corner_ids.size()) +
+                                  " corners, at least 4 are needed for its pose");
+    }
+    std::vector<bool> seen(static_cast<size_t>(num_corners), false);
+    for (size_t k = 0; k < view.corner_ids.size(); ++k) {
+      const int id = view.corner_ids[k];
+      if (id < 0 || id >= num_corners) {
+        throw std::invalid_argument(name + "corner id " + std::to_string(id) +
+                                    " is outside the target's [0, " + std::to_string(num_corners) +
+                                    ")");
+      }
+      if (seen[static_cast<size_t>(id)]) {
+        throw std::invalid_argument(name + "corner id " + std::to_string(id) + " appears twice");
+      }
+      seen[static_cast<size_t>(id)] = true;
+      if (!view.pixels[k].allFinite()) {
+        throw std::invalid_argument(name + "the pixel of corner " + std::to_string(id) +
+                                    " is not finite");
+      }
+    }
+  }
+}
+
+// Focal length (pixels, fx = fy) from the views' homographies, principal point at the
+// centre: with H ~ K [r1 r2 t] (pixels shifted to the centre and scaled by 1 / s), the
+// orthonormality of r1, r2 gives per view two equations linear in a = 1 / f^2 (Zhang 2000,
+// with K's only unknown f). A view parallel to the image plane makes both right-hand sides
+// zero (its homography carries no perspective), so a set of such views leaves a at 0 +/-
+// noise: the estimate is refused when a <= 0 or its relative standard error is too large.
+double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width_px, int height_px,
+                   const std::vector<ViewObservation>& views) {
+  const double cx = (width_px - 1) / 2.0, cy = (height_px - 1) / 2.0;
+  const double scale = 1.0 / std::max(width_px, height_px);  // keeps a near 1
+  Eigen::MatrixXd A(2 * static_cast<int>(views.size()), 1);
+  Eigen::VectorXd b(A.rows());
+  for (size_t v = 0; v < views.size(); ++v) {
+    std::vector<cv::Point2d> object, image;
+    for (size_t k = 0; k < views[v].corner_ids.size(); ++k) {
+      const Eigen::Vector3d& p = corners_target[static_cast<size_t>(views[v].corner_ids[k])];
+      object.emplace_back(p.x(), p.y());
+      image.emplace_back((views[v].pixels[k].x() - cx) * scale,
+                         (views[v].pixels[k].y() - cy) * scale);
+    }
+    const cv::Mat H_cv = cv::findHomography(object, image, 0);
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    if (!H_cv.empty()) {
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) H(r, c) = H_cv.at<double>(r, c);
+      }
+      H /= H.norm();
+    }
+    const Eigen::Vector3d h1 = H.col(0), h2 = H.col(1);
+    const int row = 2 * static_cast<int>(v);
+    A(row, 0) = h1.x() * h2.x() + h1.y() * h2.y();
+    b(row) = -h1.z() * h2.z();
+    A(row + 1, 0) = h1.x() * h1.x() - h2.x() * h2.x() + h1.y() * h1.y() - h2.y() * h2.y();
+    b(row + 1) = -(h1.z() * h1.z() - h2.z() * h2.z());
+  }
+  const double ata = A.squaredNorm();
+  const double a = ata > 0 ? A.col(0).dot(b) / ata : 0;
+  const double dof = static_cast<double>(A.rows() - 1);
+  const double a_std = std::sqrt((b - A * a).squaredNorm() / dof / ata);
+  // f = 1 / sqrt(a): its relative error is half that of a.
+  if (!(a > 0) || !(0.5 * a_std / a <= kMaxSeedFocalRelativeError)) {
+    throw std::invalid_argument(
+        "intrinsics: the views do not constrain the focal length — the target is (nearly) "
+        "fronto-parallel in all of them (homography focal estimate: 1/f^2 = " +
+        std::to_string(a) + " +/- " + std::to_string(a_std) +
+        " in units of the image size); tilt the target 20-40 degrees about different axes "
+        "in several views");
+  }
+  return 1.0 / std::sqrt(a) / scale;
+}
+
+// camera_from_target of every view by PnP on the seed pinhole camera (planar IPPE).
+std::vector<mrcal_pose_t> SeedPoses(const std::vector<Eigen::Vector3d>& corners_target, double f_px,
+                                    int width_px, int height_px,
+                                    const std::vector<ViewObservation>& views) {
+  const cv::Matx33d K(f_px, 0, (width_px - 1) / 2.0, 0, f_px, (height_px - 1) / 2.0, 0, 0, 1);
+  std::vector<mrcal_pose_t> poses;
+  for (size_t v = 0; v < views.size(); ++v) {
+    std::vector<cv::Point3d> object;
+    std::vector<cv::Point2d> image;
+    for (size_t k = 0; k < views[v].corner_ids.size(); ++k) {
+      const Eigen::Vector3d& p = corners_target[static_cast<size_t>(views[v].corner_ids[k])];
+      object.emplace_back(p.x(), p.y(), p.z());
+      image.emplace_back(views[v].pixels[k].x(), views[v].pixels[k].y());
+    }
+    cv::Vec3d rvec, tvec;
+    if (!cv::solvePnP(object, image, K, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE) ||
+        !(tvec[2] > 0)) {
+      throw std::invalid_argument("intrinsics: view " + std::to_string(v) +
+                                  ": no pose of the target fits its corners (PnP failed)");
+    }
+    poses.push_back({{{rvec[0], rvec[1], rvec[2]}}, {{tvec[0], tvec[1], tvec[2]}}});
+  }
+  return poses;
+}
+
+}  // namespace
+
+std::string IntrinsicsOptions::Check() const {
+  if (!(outlier_sigmas > 1 && outlier_sigmas <= 100)) {
+    return core::OptionFail("outlier_sigmas", outlier_sigmas, "in (1, 100]");
+  }
+  return "";
+}
+
+IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int height_px,
+                                 const std::vector<ViewObservation>& views,
+                                 const IntrinsicsOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (const std::string problem = target.Check(); !problem.empty()) {
+    throw std::invalid_argument("intrinsics: target: " + problem);
+  }
+  const std::vector<Eigen::Vector3d> corners_target = core::TargetCorners(target);
+  CheckInputs(width_px, height_px, views, options, static_cast<int>(corners_target.size()));
+
+  MrcalProblem problem(
+      options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8 : MRCAL_LENSMODEL_OPENCV5,
+      width_px, height_px, corners_target, views);
+  if (2 * problem.NumObservations() <= problem.NumState()) {
+    throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
+                                " corners give " + std::to_string(2 * problem.NumObservations()) +
+                                " measurements for " + std::to_string(problem.NumState()) +
+                                " unknowns (intrinsics and 6 per view): more corners are needed");
+  }
+  const double f_px = SeedFocalPx(corners_target, width_px, height_px, views);
+  problem.intrinsics.assign(static_cast<size_t>(problem.NumIntrinsics()), 0.0);
+  problem.intrinsics[0] = problem.intrinsics[1] = f_px;
+  problem.intrinsics[2] = (width_px - 1) / 2.0;
+  problem.intrinsics[3] = (height_px - 1) / 2.0;
+  problem.poses = SeedPoses(corners_target, f_px, width_px, height_px, views);
+
+  if (options.staged) {
+    problem.Optimize(/*core=*/false, /*distortion=*/false);
+    problem.Optimize(true, false);
+  }
+  problem.Optimize(true, true);
+  for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
+    if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
+    problem.Optimize(true, true);
+  }
+
+  IntrinsicsResult result = problem.Result();
+  result.solve_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace hw::calibrate

@@ -1,0 +1,289 @@
+#include "calibrate/mrcal_problem.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "core/cameramodel_io.h"
+
+namespace hw::calibrate {
+
+Eigen::Vector2d MrcalProject(const mrcal_lensmodel_t& lensmodel,
+                             const std::vector<double>& intrinsics, const Eigen::Vector3d& p_cam,
+                             Eigen::Matrix<double, 2, 3>* dq_dp, Eigen::MatrixXd* dq_dintrinsics) {
+  const int n = static_cast<int>(intrinsics.size());
+  const mrcal_point3_t p{{p_cam.x(), p_cam.y(), p_cam.z()}};
+  mrcal_point2_t q{};
+  std::array<mrcal_point3_t, 2> dq_dp_mrcal{};
+  std::vector<double> dq_di(dq_dintrinsics != nullptr ? static_cast<size_t>(2 * n) : 0);
+  mrcal_project(&q, dq_dp != nullptr ? dq_dp_mrcal.data() : nullptr,
+                dq_dintrinsics != nullptr ? dq_di.data() : nullptr, &p, 1, &lensmodel,
+                intrinsics.data());
+  if (dq_dp != nullptr) {
+    for (int r = 0; r < 2; ++r) {
+      for (int c = 0; c < 3; ++c) (*dq_dp)(r, c) = dq_dp_mrcal[static_cast<size_t>(r)].xyz[c];
+    }
+  }
+  if (dq_dintrinsics != nullptr) {
+    dq_dintrinsics->resize(2, n);
+    for (int r = 0; r < 2; ++r) {
+      for (int c = 0; c < n; ++c) (*dq_dintrinsics)(r, c) = dq_di[static_cast<size_t>(r * n + c)];
+    }
+  }
+  return {q.x, q.y};
+}
+
+Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_target,
+                               Eigen::Matrix<double, 3, 6>* dp_drt) {
+  const std::array<double, 6> rt_array{rt.r.x, rt.r.y, rt.r.z, rt.t.x, rt.t.y, rt.t.z};
+  const std::array<double, 3> x_in{p_target.x(), p_target.y(), p_target.z()};
+  std::array<double, 3> x_out{};
+  std::array<double, 18> J{};  // (3, 6) row-major
+  mrcal_transform_point_rt(x_out.data(), dp_drt != nullptr ? J.data() : nullptr, nullptr,
+                           rt_array.data(), x_in.data());
+  if (dp_drt != nullptr) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 6; ++c) (*dp_drt)(r, c) = J[static_cast<size_t>(6 * r + c)];
+    }
+  }
+  return {x_out[0], x_out[1], x_out[2]};
+}
+
+MrcalProblem::MrcalProblem(mrcal_lensmodel_type_t type, int width_px, int height_px,
+                           const std::vector<Eigen::Vector3d>& corners_target,
+                           const std::vector<ViewObservation>& views)
+    : imagersize_{width_px, height_px} {
+  lensmodel_.type = type;
+  for (const Eigen::Vector3d& p : corners_target) points_.push_back({{p.x(), p.y(), p.z()}});
+  for (size_t v = 0; v < views.size(); ++v) {
+    view_begin_.push_back(static_cast<int>(observations_.size()));
+    for (size_t k = 0; k < views[v].corner_ids.size(); ++k) {
+      mrcal_observation_point_t observation{};
+      observation.icam.intrinsics = 0;
+      observation.icam.extrinsics = static_cast<int>(v);
+      observation.i_point = views[v].corner_ids[k];
+      observation.px = {{views[v].pixels[k].x(), views[v].pixels[k].y(), 1.0}};
+      observations_.push_back(observation);
+    }
+  }
+  view_begin_.push_back(static_cast<int>(observations_.size()));
+}
+
+int MrcalProblem::NumIntrinsics() const { return mrcal_lensmodel_num_params(&lensmodel_); }
+
+int MrcalProblem::NumState() const {
+  return NumIntrinsics() + 6 * (static_cast<int>(view_begin_.size()) - 1);
+}
+
+namespace {
+
+mrcal_problem_selections_t Selections(bool optimize_core, bool optimize_distortion) {
+  mrcal_problem_selections_t selections{};
+  selections.do_optimize_intrinsics_core = optimize_core;
+  selections.do_optimize_intrinsics_distortions = optimize_distortion;
+  selections.do_optimize_extrinsics = true;
+  selections.do_optimize_frames = false;
+  selections.do_optimize_calobject_warp = false;
+  // mrcal's light regularisation (distortion towards 0, principal point towards the
+  // centre), as its calibration tool applies: LENSMODEL_OPENCV8 needs it, its rational
+  // numerator and denominator otherwise grow together without bound (|k| > 1e4 on opencv5
+  // data). On the tests' opencv5 data its effect is negligible (the chi-square of the
+  // intrinsics' error against the truth goes from 17.40 to 17.42).
+  selections.do_apply_regularization = true;
+  selections.do_apply_outlier_rejection = false;  // points: not implemented in mrcal 2.2
+  return selections;
+}
+
+// Range penalties of discrete points: far outside any calibration distance, never active.
+constexpr mrcal_problem_constants_t kConstants{1e-6, 1e6};
+
+}  // namespace
+
+void MrcalProblem::Optimize(bool optimize_core, bool optimize_distortion) {
+  const mrcal_problem_selections_t selections = Selections(optimize_core, optimize_distortion);
+  const mrcal_problem_constants_t constants = kConstants;
+  const int num_points = static_cast<int>(points_.size());
+  const mrcal_stats_t stats = mrcal_optimize(
+      nullptr, 0, nullptr, 0, intrinsics.data(), poses.data(), nullptr, points_.data(), nullptr,
+      /*Ncameras_intrinsics=*/1, /*Ncameras_extrinsics=*/static_cast<int>(poses.size()),
+      /*Nframes=*/0, num_points, /*Npoints_fixed=*/num_points, nullptr, observations_.data(), 0,
+      NumObservations(), nullptr, &lensmodel_, imagersize_.data(), selections, &constants, 0.0, 0,
+      0, /*verbose=*/false, /*check_gradient=*/false);
+  if (!(stats.rms_reproj_error__pixels >= 0) || !std::isfinite(stats.rms_reproj_error__pixels)) {
+    throw std::runtime_error("intrinsics: mrcal_optimize failed (rms reprojection error " +
+                             std::to_string(stats.rms_reproj_error__pixels) + ")");
+  }
+}
+
+Eigen::MatrixXd MrcalProblem::RegularizationJacobian() const {
+  const mrcal_problem_selections_t selections = Selections(true, true);
+  const mrcal_problem_constants_t constants = kConstants;
+  const int num_views = static_cast<int>(poses.size());
+  const int num_points = static_cast<int>(points_.size());
+  const int num_measurements = mrcal_num_measurements(
+      0, NumObservations(), 0, 0, 1, num_views, 0, num_points, num_points, selections, &lensmodel_);
+  const int num_states =
+      mrcal_num_states(1, num_views, 0, num_points, num_points, 0, selections, &lensmodel_);
+  const int begin = mrcal_measurement_index_regularization(0, NumObservations(), 0, 0);
+  const int count = mrcal_num_measurements_regularization(1, num_views, 0, num_points, num_points,
+                                                          0, selections, &lensmodel_);
+  std::vector<double> b_packed(static_cast<size_t>(num_states)),
+      x(static_cast<size_t>(num_measurements));
+  // mrcal's measurements x at the intrinsics `at` (the poses as they are). Buffer sizes in
+  // bytes.
+  auto measure = [&](const std::vector<double>& at) {
+    if (!mrcal_optimizer_callback(b_packed.data(), static_cast<int>(sizeof(double)) * num_states,
+                                  x.data(), static_cast<int>(sizeof(double)) * num_measurements,
+                                  nullptr, at.data(), poses.data(), nullptr, points_.data(),
+                                  nullptr, 1, num_views, 0, num_points, num_points, nullptr,
+                                  observations_.data(), 0, NumObservations(), nullptr, &lensmodel_,
+                                  imagersize_.data(), selections, &constants, 0.0, 0, 0, false)) {
+      throw std::runtime_error("intrinsics: mrcal_optimizer_callback failed");
+    }
+    return Eigen::Map<const Eigen::VectorXd>(x.data() + begin, count).eval();
+  };
+  const int n = NumIntrinsics();
+  Eigen::MatrixXd J(count, n);
+  for (int i = 0; i < n; ++i) {
+    // Central differences: mrcal's regularisation terms are smooth, low-order functions of
+    // the intrinsics (exact for a quadratic), and this is 2 callbacks per intrinsic.
+    const double step = 1e-6 * std::max(1.0, std::abs(intrinsics[static_cast<size_t>(i)]));
+    std::vector<double> plus = intrinsics, minus = intrinsics;
+    plus[static_cast<size_t>(i)] += step;
+    minus[static_cast<size_t>(i)] -= step;
+    J.col(i) = (measure(plus) - measure(minus)) / (2 * step);
+  }
+  return J;
+}
+
+std::vector<Eigen::Vector2d> MrcalProblem::Residuals(Eigen::MatrixXd* J) const {
+  const int n_intrinsics = NumIntrinsics();
+  if (J != nullptr) *J = Eigen::MatrixXd::Zero(2 * NumObservations(), NumState());
+  std::vector<Eigen::Vector2d> residuals;
+  residuals.reserve(observations_.size());
+  Eigen::Matrix<double, 3, 6> dp_drt;
+  Eigen::Matrix<double, 2, 3> dq_dp;
+  Eigen::MatrixXd dq_di;
+  for (size_t v = 0; v + 1 < view_begin_.size(); ++v) {
+    for (int o = view_begin_[v]; o < view_begin_[v + 1]; ++o) {
+      const mrcal_observation_point_t& observation = observations_[static_cast<size_t>(o)];
+      const mrcal_point3_t& point = points_[static_cast<size_t>(observation.i_point)];
+      const Eigen::Vector3d p_cam =
+          MrcalTransform(poses[v], {point.x, point.y, point.z}, J != nullptr ? &dp_drt : nullptr);
+      const Eigen::Vector2d q =
+          MrcalProject(lensmodel_, intrinsics, p_cam, J != nullptr ? &dq_dp : nullptr,
+                       J != nullptr ? &dq_di : nullptr);
+      residuals.emplace_back(observation.px.x - q.x(), observation.px.y - q.y());
+      if (J != nullptr) {
+        J->block(2 * o, 0, 2, n_intrinsics) = dq_di;
+        J->block(2 * o, n_intrinsics + 6 * static_cast<int>(v), 2, 6) = dq_dp * dp_drt;
+      }
+    }
+  }
+  return residuals;
+}
+
+int MrcalProblem::MarkOutliers(double sigmas) {
+  const std::vector<Eigen::Vector2d> residuals = Residuals(nullptr);
+  double sum_squared = 0;
+  int inliers = 0;
+  for (size_t o = 0; o < residuals.size(); ++o) {
+    if (observations_[o].px.z < 0) continue;
+    sum_squared += residuals[o].squaredNorm();
+    ++inliers;
+  }
+  if (inliers == 0) return 0;
+  const double threshold_squared = sigmas * sigmas * sum_squared / inliers;
+  int marked = 0;
+  for (size_t o = 0; o < residuals.size(); ++o) {
+    if (observations_[o].px.z >= 0 && residuals[o].squaredNorm() > threshold_squared) {
+      observations_[o].px.z = -1;
+      ++marked;
+    }
+  }
+  return marked;
+}
+
+IntrinsicsResult MrcalProblem::Result() const {
+  IntrinsicsResult result;
+  const int n_intrinsics = NumIntrinsics();
+  result.camera.width = imagersize_[0];
+  result.camera.height = imagersize_[1];
+  result.camera.type = core::CameraModelType::kOpenCV;
+  result.camera.fx = intrinsics[0];
+  result.camera.fy = intrinsics[1];
+  result.camera.cx = intrinsics[2];
+  result.camera.cy = intrinsics[3];
+  result.camera.distortion.assign(intrinsics.begin() + 4, intrinsics.end());
+  if (const std::string problem = result.camera.Check(); !problem.empty()) {
+    throw std::runtime_error("intrinsics: mrcal converged to an invalid camera: " + problem);
+  }
+  std::array<char, 128> name{};
+  mrcal_lensmodel_name(name.data(), static_cast<int>(name.size()), &lensmodel_);
+  result.mrcal_lensmodel = name.data();
+  result.mrcal_intrinsics = intrinsics;
+  for (const mrcal_pose_t& pose : poses) {
+    result.camera_from_target.emplace_back(
+        core::QuaternionFromRodrigues({pose.r.x, pose.r.y, pose.r.z}),
+        Eigen::Vector3d(pose.t.x, pose.t.y, pose.t.z));
+  }
+
+  Eigen::MatrixXd J;
+  const std::vector<Eigen::Vector2d> residuals = Residuals(&J);
+  double sum_squared = 0;
+  int inliers = 0;
+  for (size_t v = 0; v + 1 < view_begin_.size(); ++v) {
+    std::vector<Eigen::Vector2d> view_residuals;
+    std::vector<bool> view_outlier;
+    double view_sum = 0;
+    int view_inliers = 0;
+    for (int o = view_begin_[v]; o < view_begin_[v + 1]; ++o) {
+      const Eigen::Vector2d& r = residuals[static_cast<size_t>(o)];
+      const bool is_outlier = observations_[static_cast<size_t>(o)].px.z < 0;
+      view_residuals.push_back(r);
+      view_outlier.push_back(is_outlier);
+      if (is_outlier) {
+        ++result.outliers;
+        J.middleRows(2 * o, 2).setZero();  // an outlier carries no information
+        continue;
+      }
+      view_sum += r.squaredNorm();
+      ++view_inliers;
+      result.worst_px = std::max(result.worst_px, r.norm());
+    }
+    sum_squared += view_sum;
+    inliers += view_inliers;
+    result.view_rms_px.push_back(view_inliers > 0 ? std::sqrt(view_sum / view_inliers)
+                                                  : std::numeric_limits<double>::quiet_NaN());
+    result.residuals_px.push_back(std::move(view_residuals));
+    result.outlier.push_back(std::move(view_outlier));
+  }
+  const int dof = 2 * inliers - NumState();
+  if (inliers == 0 || dof <= 0) {
+    throw std::runtime_error("intrinsics: " + std::to_string(2 * inliers) +
+                             " inlier measurements for " + std::to_string(NumState()) +
+                             " unknowns: the problem is not overdetermined");
+  }
+  result.rms_px = std::sqrt(sum_squared / inliers);
+  result.observation_sigma_px = std::sqrt(sum_squared / dof);
+
+  Eigen::MatrixXd JtJ = J.transpose() * J;
+  const Eigen::MatrixXd J_regularization = RegularizationJacobian();
+  JtJ.topLeftCorner(n_intrinsics, n_intrinsics) += J_regularization.transpose() * J_regularization;
+  const Eigen::LLT<Eigen::MatrixXd> llt(JtJ);
+  if (llt.info() != Eigen::Success) {
+    throw std::runtime_error(
+        "intrinsics: J^T J is singular at the optimum: the views do not "
+        "constrain every intrinsic parameter and pose");
+  }
+  result.state_covariance = result.observation_sigma_px * result.observation_sigma_px *
+                            llt.solve(Eigen::MatrixXd::Identity(NumState(), NumState()));
+  result.intrinsics_covariance = result.state_covariance.topLeftCorner(n_intrinsics, n_intrinsics);
+  return result;
+}
+
+}  // namespace hw::calibrate
