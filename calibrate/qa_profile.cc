@@ -32,9 +32,9 @@ std::string QaProfile::Check() const {
 std::vector<QaCheck> EvaluateQa(const QaProfile& p, const QaMeasurements& m) {
   std::vector<QaCheck> checks = {
       {"views", "accepted views", static_cast<double>(m.views), static_cast<double>(p.min_views), false, "views"},
-      {"rms_px", "RMS residual per coordinate", m.rms_px, p.max_rms_px, true, "px"},
+      {"rms_px", "RMS residual (norm per corner)", m.rms_px, p.max_rms_px, true, "px"},
       {"worst_px", "largest inlier residual", m.worst_px, p.max_worst_px, true, "px"},
-      {"view_rms_px", "worst view's RMS residual per coordinate", m.max_view_rms_px, p.max_view_rms_px, true, "px"},
+      {"view_rms_px", "worst view's RMS residual", m.max_view_rms_px, p.max_view_rms_px, true, "px"},
       {"outlier_fraction", "corners rejected as outliers", m.outlier_fraction, p.max_outlier_fraction, true, ""},
       {"coverage", "image cells (8 x 6) observed", m.coverage, p.min_coverage, false, ""},
       {"uncertainty_px",

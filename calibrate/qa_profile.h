@@ -12,9 +12,9 @@ namespace hw::calibrate {
 
 struct QaProfile {
   int min_views = 10;                 // accepted views, [3, 10000]
-  double max_rms_px = 0.5;            // RMS residual per coordinate (mrcal's), px, (0, 100]
+  double max_rms_px = 0.5;            // RMS of the corners' residual norms (mrcal's figure), px, (0, 100]
   double max_worst_px = 2.0;          // largest inlier residual (2D norm), px, (0, 1000]
-  double max_view_rms_px = 1.0;       // worst per-view RMS (per coordinate), px, (0, 100]
+  double max_view_rms_px = 1.0;       // worst view's RMS, as max_rms_px, px, (0, 100]
   double max_outlier_fraction = 0.05; // corners rejected as outliers, [0, 1]
   double min_coverage = 0.5;          // fraction of the image's 8 × 6 cells holding a corner, [0, 1]
   double max_uncertainty_px = 0.5;    // worst projection uncertainty (1σ) over the covered cells, px, (0, 100]

@@ -159,8 +159,10 @@ TEST(SquareGridSession, SmallSessionDetectedAndRefinementHelps) {
 }
 
 // The full-size session (320x240 thermal, 5x7 holes, the preset's 24 views). Its first run
-// renders the session (~65 s on 2 cores), later runs reuse it (< 1 s).
-TEST(SquareGridSession, FullSessionDetectedAndRefinementHelps) {
+// renders the session (~65 s on 2 cores), later runs reuse it (< 1 s): too slow for the
+// suite, run on demand (README): build/calibrate/calibrate_square_grid_test
+// --gtest_also_run_disabled_tests --gtest_filter='*FullSession*'.
+TEST(SquareGridSession, DISABLED_FullSessionDetectedAndRefinementHelps) {
   const auto preset =
       CalibrationSessionOptions::Preset(CalibrationSessionKind::kThermalSquareGrid, false);
   const Session session =

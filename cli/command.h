@@ -73,6 +73,7 @@ int RunCompare(int argc, char** argv);
 int RunAudit(int argc, char** argv);
 int RunReport(int argc, char** argv);
 int RunDemo(int argc, char** argv);
+int RunCalibrate(int argc, char** argv);
 int RunEvalTrajectory(int argc, char** argv);
 
 }  // namespace hw::cli

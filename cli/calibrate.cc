@@ -1,0 +1,344 @@
+#include "cli/calibrate.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+
+#include "calibrate/diagnostics.h"
+#include "calibrate/image_source.h"
+#include "calibrate/square_grid.h"
+#include "calibrate/target_detect.h"
+#include "cli/command.h"
+#include "core/atomic_file.h"
+#include "core/cameramodel_io.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/json.h"
+#include "core/option_check.h"
+#include "core/output_folder.h"
+#include "core/progress.h"
+#include "core/strings.h"
+
+namespace hw::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using core::StringPrintf;
+
+constexpr int kCoverageCols = 8, kCoverageRows = 6;    // QA coverage cells
+constexpr int kUncertaintyCols = 16, kUncertaintyRows = 12;
+
+core::Stream StreamOf(const std::string& camera) {
+  return camera == "thermal" ? core::Stream::kThermal : camera == "rgb" ? core::Stream::kRgb : core::Stream::kDepth;
+}
+
+std::string ModelName(calibrate::LensModel m) { return m == calibrate::LensModel::kOpenCv5 ? "opencv5" : "opencv8"; }
+
+calibrate::Detection Detect(const cv::Mat& image, const core::Target& target, const std::string& name) {
+  switch (target.type) {
+    case core::TargetType::kSquareGrid: return calibrate::DetectSquareGrid(image, target, {}, name);
+    case core::TargetType::kChessboard: return calibrate::DetectChessboard(image, target, {}, name);
+    case core::TargetType::kAprilGrid: return calibrate::DetectAprilGrid(image, target, {}, name);
+  }
+  return {};
+}
+
+std::string FileSafe(std::string name) {
+  for (char& c : name) {
+    if (c == '/' || c == '\\' || c == ' ') c = '-';
+  }
+  return name;
+}
+
+std::string ArrayJson(const std::vector<double>& values) {
+  std::string out = "[";
+  for (size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + core::JsonNumber(values[i]);
+  return out + "]";
+}
+
+std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCommandResult& r) {
+  const calibrate::IntrinsicsResult& s = r.solve;
+  const core::CameraModel& c = s.camera;
+  std::vector<double> sigmas;
+  for (Eigen::Index i = 0; i < s.intrinsics_covariance.rows(); ++i) {
+    sigmas.push_back(std::sqrt(std::max(0.0, s.intrinsics_covariance(i, i))));
+  }
+  core::JsonObject camera;
+  camera.Int("width", c.width).Int("height", c.height).String("model", core::MrcalLensModelName(c));
+  camera.Number("fx", c.fx).Number("fy", c.fy).Number("cx", c.cx).Number("cy", c.cy).Add("distortion", ArrayJson(c.distortion));
+  core::JsonObject mrcal;
+  mrcal.String("lensmodel", s.mrcal_lensmodel).Add("intrinsics", ArrayJson(s.mrcal_intrinsics)).Add("intrinsics_sigma", ArrayJson(sigmas));
+  std::vector<std::string> views;
+  for (size_t i = 0; i < r.detections.size(); ++i) {
+    const calibrate::Detection& d = r.detections[i];
+    core::JsonObject v;
+    v.String("view", d.view).Bool("accepted", d.accepted).String("reason", d.reason).Int("corners", static_cast<int64_t>(d.pixels.size()));
+    v.Number("homography_rms_px", d.homography_rms_px);
+    const auto solved = std::find(r.solved_views.begin(), r.solved_views.end(), static_cast<int>(i));
+    if (solved != r.solved_views.end()) {
+      const size_t k = static_cast<size_t>(solved - r.solved_views.begin());
+      v.Number("rms_px", s.view_rms_px[k]);
+      const core::Rigid3d& pose = s.camera_from_target[k];
+      v.Add("camera_from_target", core::JsonObject()
+                                      .Add("q_xyzw", ArrayJson({pose.rotation.x(), pose.rotation.y(), pose.rotation.z(), pose.rotation.w()}))
+                                      .Add("t_m", ArrayJson({pose.translation.x(), pose.translation.y(), pose.translation.z()}))
+                                      .str());
+    }
+    views.push_back(v.str());
+  }
+  std::vector<std::string> checks;
+  for (const calibrate::QaCheck& q : r.checks) {
+    checks.push_back(core::JsonObject()
+                         .String("check", q.name)
+                         .String("what", q.what)
+                         .Number("measured", q.measured)
+                         .String("comparison", q.at_most ? "<=" : ">=")
+                         .Number("threshold", q.threshold)
+                         .String("unit", q.unit)
+                         .String("verdict", q.pass ? "PASS" : "FAIL")
+                         .str());
+  }
+  core::JsonObject root;
+  root.Int("version", 1).String("command", "heatwave calibrate intrinsics");
+  root.String("images", o.images.string()).String("camera", o.camera).String("lens_model", ModelName(o.solver.model));
+  root.String("target", core::TargetTypeName(r.target.type) + StringPrintf(" %d x %d", r.target.rows, r.target.cols));
+  root.Add("camera_model", camera.str()).Add("mrcal", mrcal.str());
+  root.Int("views_used", static_cast<int64_t>(r.solved_views.size())).Int("images", static_cast<int64_t>(r.detections.size()));
+  root.Number("rms_px", s.rms_px).String("rms_is", "RMS of the inlier corners' residual norms, as mrcal reports");
+  root.Number("worst_px", s.worst_px).String("worst_is", "largest 2D residual norm of an inlier corner");
+  root.Number("observation_sigma_px", s.observation_sigma_px)
+      .String("observation_sigma_is", "per coordinate, from the inlier residuals and the degrees of freedom");
+  root.Int("outliers", s.outliers);
+  root.Number("coverage", r.coverage).Add("coverage_cells", StringPrintf("[%d, %d]", kCoverageCols, kCoverageRows));
+  root.Add("uncertainty", core::JsonObject()
+                              .Number("range_m", r.profile.uncertainty_range_m)
+                              .Add("grid", StringPrintf("[%d, %d]", r.grid_cols, r.grid_rows))
+                              .Add("px", ArrayJson(r.uncertainty_px))
+                              .str());
+  root.Add("qa", core::JsonArray(checks, "  ")).String("verdict", r.pass ? "PASS" : "FAIL");
+  root.Add("views", core::JsonArray(views, "  "));
+  root.Number("solve_s", s.solve_seconds).Number("total_s", r.seconds);
+  return root.str() + "\n";
+}
+
+}  // namespace
+
+std::string IntrinsicsCommandOptions::Check() const {
+  if (images.empty()) return "--images: must be given";
+  if (out_folder.empty()) return "--out: must be given";
+  if (camera != "thermal" && camera != "rgb" && camera != "depth") {
+    return "--camera: must be thermal, rgb or depth, got '" + camera + "'";
+  }
+  if (const std::string p = solver.Check(); !p.empty()) return p;
+  return "";
+}
+
+IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, bool quiet) {
+  const auto start = std::chrono::steady_clock::now();
+  IntrinsicsCommandResult r;
+  r.target = core::ReadTarget(o.target_path.empty() ? o.images / "target.yaml" : o.target_path);
+  if (!o.profile_path.empty()) r.profile = calibrate::ReadQaProfile(o.profile_path);
+  const fs::path rig_path = !o.rig_path.empty() ? o.rig_path : fs::exists(o.images / "rig.yaml") ? o.images / "rig.yaml" : fs::path();
+  std::optional<core::Rig> rig;
+  if (!rig_path.empty()) rig = core::ReadRig(rig_path);
+  const std::vector<calibrate::CalibrationImage> images = calibrate::LoadCalibrationImages(o.images, StreamOf(o.camera));
+  const int width = images.front().image.cols, height = images.front().image.rows;
+
+  {
+    core::ProgressBar bar("detect", static_cast<int64_t>(images.size()), "images", quiet);
+    for (const calibrate::CalibrationImage& im : images) {
+      r.detections.push_back(Detect(im.image, r.target, im.name));
+      bar.Advance();
+    }
+  }
+  std::vector<calibrate::ViewObservation> views;
+  std::string first_reason;
+  for (size_t i = 0; i < r.detections.size(); ++i) {
+    const calibrate::Detection& d = r.detections[i];
+    if (!d.accepted) {
+      if (first_reason.empty()) first_reason = d.view + ": " + d.reason;
+      continue;
+    }
+    views.push_back({d.corner_ids, d.pixels});
+    r.solved_views.push_back(static_cast<int>(i));
+  }
+  const std::string target_text = core::TargetTypeName(r.target.type) + StringPrintf(" %d x %d", r.target.rows, r.target.cols);
+  if (views.empty()) {
+    throw core::InputError(o.images, StringPrintf("no target found in any of the %zu images (target.yaml: %s — does it "
+                                                  "match the images?); %s",
+                                                  images.size(), target_text.c_str(), first_reason.c_str()));
+  }
+  if (views.size() < 3) {
+    throw core::InputError(o.images, StringPrintf("too few usable views: %zu of %zu images show the %s target (at least "
+                                                  "3 are needed); %s",
+                                                  views.size(), images.size(), target_text.c_str(), first_reason.c_str()));
+  }
+  try {
+    r.solve = calibrate::SolveIntrinsics(r.target, width, height, views, o.solver);
+  } catch (const std::invalid_argument& e) {
+    throw core::InputError(o.images, e.what());
+  }
+  r.grid_cols = kUncertaintyCols;
+  r.grid_rows = kUncertaintyRows;
+  r.uncertainty_px = calibrate::ProjectionUncertaintyMap(r.solve, r.grid_cols, r.grid_rows, r.profile.uncertainty_range_m);
+
+  // Coverage: the cells of an 8 × 6 grid over the image holding an inlier corner; the
+  // uncertainty check looks at those cells only (outside them it is extrapolation).
+  std::vector<bool> covered(kCoverageCols * kCoverageRows, false);
+  int corners = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (size_t i = 0; i < views[v].pixels.size(); ++i) {
+      ++corners;
+      if (r.solve.outlier[v][i]) continue;
+      const int cx = std::clamp(static_cast<int>(views[v].pixels[i].x() / width * kCoverageCols), 0, kCoverageCols - 1);
+      const int cy = std::clamp(static_cast<int>(views[v].pixels[i].y() / height * kCoverageRows), 0, kCoverageRows - 1);
+      covered[static_cast<size_t>(cy * kCoverageCols + cx)] = true;
+    }
+  }
+  r.coverage = static_cast<double>(std::count(covered.begin(), covered.end(), true)) / covered.size();
+  calibrate::QaMeasurements m;
+  m.views = static_cast<int>(views.size());
+  m.rms_px = r.solve.rms_px;
+  m.worst_px = r.solve.worst_px;
+  m.max_view_rms_px = *std::max_element(r.solve.view_rms_px.begin(), r.solve.view_rms_px.end());
+  m.outlier_fraction = static_cast<double>(r.solve.outliers) / std::max(corners, 1);
+  m.max_uncertainty_px = 0;
+  for (int gy = 0; gy < r.grid_rows; ++gy) {
+    for (int gx = 0; gx < r.grid_cols; ++gx) {
+      const int cx = gx * kCoverageCols / r.grid_cols, cy = gy * kCoverageRows / r.grid_rows;
+      if (!covered[static_cast<size_t>(cy * kCoverageCols + cx)]) continue;
+      m.max_uncertainty_px = std::max(m.max_uncertainty_px, r.uncertainty_px[static_cast<size_t>(gy * r.grid_cols + gx)]);
+    }
+  }
+  m.coverage = r.coverage;
+  r.checks = calibrate::EvaluateQa(r.profile, m);
+  r.pass = calibrate::AllPass(r.checks);
+
+  // Everything is known: now the folder.
+  core::OutputFolder folder(o.out_folder, "heatwave calibrate intrinsics");
+  if (!folder.IsEmpty()) {
+    if (!o.overwrite) {
+      folder.Abandon();
+      throw UsageError("--out " + o.out_folder.string() + ": folder is not empty; pass --overwrite to replace the calibration in it");
+    }
+    folder.Remove({"intrinsics.json", "camera.cameramodel", "rig.yaml", "diagnostics"});
+  }
+  const fs::path diag = o.out_folder / "diagnostics";
+  fs::create_directories(diag / "detections");
+  for (size_t i = 0; i < images.size(); ++i) {
+    const std::string file = "diagnostics/detections/" + FileSafe(images[i].name) + ".png";
+    core::WriteImageAtomically(o.out_folder / file, calibrate::DrawDetection(images[i].image, r.detections[i]));
+  }
+  std::vector<std::vector<Eigen::Vector2d>> corner_px;
+  for (const calibrate::ViewObservation& v : views) corner_px.push_back(v.pixels);
+  core::WriteImageAtomically(diag / "residuals.png",
+                             calibrate::DrawResidualField(width, height, corner_px, r.solve.residuals_px, r.solve.outlier, 20));
+  core::WriteImageAtomically(diag / "histogram.png", calibrate::DrawResidualHistogram(r.solve.residuals_px, r.solve.outlier,
+                                                                                      r.solve.observation_sigma_px));
+  const double max_shown = std::max(r.profile.max_uncertainty_px, m.max_uncertainty_px);
+  core::WriteImageAtomically(diag / "uncertainty.png",
+                             calibrate::DrawUncertaintyMap(width, height, r.uncertainty_px, r.grid_cols, r.grid_rows, max_shown,
+                                                           StringPrintf("projection uncertainty (1 sigma) at %g m",
+                                                                        r.profile.uncertainty_range_m)));
+  r.written = {"diagnostics/"};
+  if (r.solve.mrcal_lensmodel.rfind("LENSMODEL_OPENCV", 0) == 0) {
+    core::WriteMrcalCameraModel(o.out_folder / "camera.cameramodel", r.solve.camera);
+    r.written.push_back("camera.cameramodel");
+  }
+  if (rig) {
+    core::Rig merged = *rig;
+    if (o.camera == "thermal") {
+      merged.thermal = r.solve.camera;
+    } else if (o.camera == "rgb") {
+      merged.rgb = r.solve.camera;
+    } else {
+      merged.depth = r.solve.camera;
+    }
+    if (o.camera == "thermal" && !merged.thermal_settings) merged.thermal_settings = core::ThermalSettings();
+    if (const std::string problem = merged.Check(); problem.empty()) {
+      core::WriteRig(o.out_folder / "rig.yaml", merged);
+      r.written.push_back("rig.yaml");
+    }
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  core::WriteFileAtomically(o.out_folder / "intrinsics.json", IntrinsicsJson(o, r));
+  r.written.push_back("intrinsics.json");
+  folder.Commit();
+  return r;
+}
+
+std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::path& out_folder) {
+  std::string out;
+  int accepted = 0;
+  for (const calibrate::Detection& d : r.detections) accepted += d.accepted;
+  out += StringPrintf("Images     %zu: target found in %d, rejected %zu\n", r.detections.size(), accepted,
+                      r.detections.size() - static_cast<size_t>(accepted));
+  int listed = 0;
+  for (const calibrate::Detection& d : r.detections) {
+    if (!d.accepted && listed++ < 4) out += "  " + d.view + ": " + d.reason + "\n";
+  }
+  const core::CameraModel& c = r.solve.camera;
+  out += StringPrintf("Camera     %s %dx%d  fx %.3f  fy %.3f  cx %.3f  cy %.3f px", r.solve.mrcal_lensmodel.c_str(), c.width,
+                      c.height, c.fx, c.fy, c.cx, c.cy);
+  if (r.solve.intrinsics_covariance.rows() >= 4) {
+    out += StringPrintf("  (1 sigma %.3f %.3f %.3f %.3f)", std::sqrt(r.solve.intrinsics_covariance(0, 0)),
+                        std::sqrt(r.solve.intrinsics_covariance(1, 1)), std::sqrt(r.solve.intrinsics_covariance(2, 2)),
+                        std::sqrt(r.solve.intrinsics_covariance(3, 3)));
+  }
+  out += "\n";
+  out += StringPrintf("Residuals  RMS %.3f px (corner norms), worst %.3f px, %d outliers; solved in %.2f s\n", r.solve.rms_px,
+                      r.solve.worst_px, r.solve.outliers, r.solve.solve_seconds);
+  out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
+  for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
+  std::string files;
+  for (const std::string& f : r.written) files += (files.empty() ? "" : ", ") + f;
+  out += StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), r.seconds);
+  return out;
+}
+
+int RunCalibrate(int argc, char** argv) {
+  CLI::App app("Calibrate a camera of the rig from images of a calibration target.", "heatwave calibrate");
+  app.require_subcommand(1);
+  CLI::App* intrinsics = app.add_subcommand(
+      "intrinsics", "detect the target, solve the intrinsics (mrcal), check them against a QA profile");
+  IntrinsicsCommandOptions o;
+  CommonOptions common;
+  AddCommonOptions(*intrinsics, common);
+  intrinsics->add_option("--images", o.images, "folder of images (PNG/JPEG/BMP/TIFF, 8 or 16 bit) or a scan folder")
+      ->required();
+  intrinsics->add_option("--target", o.target_path, "target.yaml; default: <images>/target.yaml");
+  intrinsics->add_option("--camera", o.camera, "thermal | rgb | depth")->capture_default_str();
+  std::string model = "opencv5";
+  intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8")->capture_default_str();
+  intrinsics->add_option("--profile", o.profile_path, "qa.yaml: the QA thresholds (README)");
+  intrinsics->add_option("--rig", o.rig_path, "rig.yaml to merge the camera into; default: the scan's");
+  intrinsics->add_option("--out", o.out_folder, "output folder")->required();
+  intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
+  if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  return RunGuarded([&] {
+    if (model == "opencv5") {
+      o.solver.model = calibrate::LensModel::kOpenCv5;
+    } else if (model == "opencv8") {
+      o.solver.model = calibrate::LensModel::kOpenCv8;
+    } else {
+      throw UsageError("--model: must be opencv5 or opencv8 (mrcal's splined model is not supported yet), got '" +
+                       model + "'");
+    }
+    ThrowIfInvalid(o.Check());
+    const IntrinsicsCommandResult result = CalibrateIntrinsics(o, common.quiet);
+    if (!common.quiet) std::cout << FormatIntrinsicsSummary(result, o.out_folder) << std::flush;
+    if (!result.pass) {
+      std::string failed;
+      for (const calibrate::QaCheck& q : result.checks) {
+        if (!q.pass) failed += (failed.empty() ? "" : ", ") + q.name;
+      }
+      PrintError("the camera failed QA: " + failed + " (intrinsics.json has every check)");
+      return kExitFailure;
+    }
+    return kExitOk;
+  });
+}
+
+}  // namespace hw::cli
