@@ -31,6 +31,8 @@ packages=(
   # report tests: the PDF checked with pdftotext / pdffonts / pdfinfo, the HTML opened in
   # headless Chromium
   poppler-utils chromium
+  # calibration tests: OpenCV's sample chessboard images (left01..14.jpg), real camera data
+  opencv-doc
 )
 
 missing=()
