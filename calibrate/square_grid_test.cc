@@ -1,9 +1,5 @@
 #include "calibrate/square_grid.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,6 +15,7 @@
 #include "core/output_folder.h"
 #include "core/scan.h"
 #include "fixtures/calibration_sessions.h"
+#include "fixtures/cached_test_data.h"
 #include "fixtures/calibration_test_support.h"
 
 namespace hw::calibrate {
@@ -27,39 +24,6 @@ namespace {
 namespace fs = std::filesystem;
 using fixtures::CalibrationSessionKind;
 using fixtures::CalibrationSessionOptions;
-
-// Newest modification time of the fixtures libraries: a session rendered before them may
-// no longer be what the fixtures render.
-fs::file_time_type FixturesBuildTime() {
-  fs::file_time_type newest = fs::file_time_type::min();
-  for (const auto& entry : fs::directory_iterator(fs::path(HW_BINARY_DIR) / "fixtures")) {
-    if (entry.path().extension() == ".a") newest = std::max(newest, entry.last_write_time());
-  }
-  return newest;
-}
-
-// The session folder of `options` under <build>/test-data/<name>, rendered once (under a
-// file lock, as reconstruct/reconstruct_test_support.h CachedScan does).
-fs::path CachedSession(const std::string& name, const CalibrationSessionOptions& options) {
-  const fs::path root = fs::path(HW_BINARY_DIR) / "test-data";
-  fs::create_directories(root);
-  const fs::path folder = root / name;
-  const int lock = ::open((root / (name + ".lock")).c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-  EXPECT_GE(lock, 0);
-  ::flock(lock, LOCK_EX);
-  const bool complete = fs::exists(folder / "thermal.txt") &&
-                        core::ProbeFolderRun(folder).state == core::FolderRunState::kComplete &&
-                        fs::last_write_time(folder / "thermal.txt") > FixturesBuildTime();
-  if (!complete) {
-    fs::remove_all(folder);
-    core::OutputFolder out(folder, "square grid test session");
-    fixtures::SynthesizeCalibrationSession(options, folder);
-    out.Commit();
-  }
-  ::flock(lock, LOCK_UN);
-  ::close(lock);
-  return folder;
-}
 
 // A session's thermal frames with the true pixels of every corner.
 struct View {
@@ -75,7 +39,7 @@ Session LoadSession(const std::string& name, bool small, int num_views) {
   auto preset =
       CalibrationSessionOptions::Preset(CalibrationSessionKind::kThermalSquareGrid, small);
   preset.thermal_square_grid.views.num_views = num_views;
-  const fs::path dir = CachedSession(name, preset);
+  const fs::path dir = fixtures::test::CachedSession(name, preset, "thermal.txt");
   const core::Scan scan = core::Scan::Open(dir);
   const core::Rig truth = core::ReadRig(dir / "truth" / "rig.yaml");
   Session session;

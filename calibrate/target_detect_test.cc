@@ -1,9 +1,6 @@
 #include "calibrate/target_detect.h"
 
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -22,6 +19,7 @@
 #include "core/output_folder.h"
 #include "core/scan.h"
 #include "fixtures/calibration_sessions.h"
+#include "fixtures/cached_test_data.h"
 #include "fixtures/calibration_test_support.h"
 #include "fixtures/colour_sensor.h"
 
@@ -32,39 +30,11 @@ namespace fs = std::filesystem;
 using fixtures::CalibrationSessionKind;
 using fixtures::CalibrationSessionOptions;
 
-// ---------------------------------------------------------------------------------------
-// Sessions, rendered once into <build>/test-data (under a lock), as reconstruct's
-// CachedScan does: ctest runs every TEST in its own process, in parallel.
-
-fs::file_time_type FixturesBuildTime() {
-  fs::file_time_type newest = fs::file_time_type::min();
-  for (const auto& entry : fs::directory_iterator(fs::path(HW_BINARY_DIR) / "fixtures")) {
-    if (entry.path().extension() == ".a") newest = std::max(newest, entry.last_write_time());
-  }
-  return newest;
-}
-
-// The small preset's session of `kind` (320x240 colour, 4 views, one per image corner).
+// The small preset's session of `kind` (320x240 colour, 4 views, one per image corner),
+// rendered once per build (fixtures/cached_test_data.h).
 fs::path CachedSession(CalibrationSessionKind kind) {
-  const std::string name = "calibrate-" + fixtures::CalibrationSessionName(kind);
-  const fs::path root = fs::path(HW_BINARY_DIR) / "test-data";
-  fs::create_directories(root);
-  const fs::path folder = root / name;
-  const int lock = ::open((root / (name + ".lock")).c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-  EXPECT_GE(lock, 0);
-  ::flock(lock, LOCK_EX);
-  const bool complete = fs::exists(folder / "rgb.txt") &&
-                        core::ProbeFolderRun(folder).state == core::FolderRunState::kComplete &&
-                        fs::last_write_time(folder / "rgb.txt") > FixturesBuildTime();
-  if (!complete) {
-    fs::remove_all(folder);
-    core::OutputFolder out(folder, "calibrate test session");
-    fixtures::SynthesizeCalibrationSession(CalibrationSessionOptions::Preset(kind, true), folder);
-    out.Commit();
-  }
-  ::flock(lock, LOCK_UN);
-  ::close(lock);
-  return folder;
+  return fixtures::test::CachedSession("calibrate-" + fixtures::CalibrationSessionName(kind),
+                                       CalibrationSessionOptions::Preset(kind, true), "rgb.txt");
 }
 
 // Frame i of a session and the truth of its corners: core::TargetCorners projected with

@@ -4,17 +4,10 @@
 // process, in parallel: a scan is rendered once into the build tree (under a file lock) and
 // reused by every test and rerun, since rendering is deterministic for given options.
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
-
-#include <algorithm>
 #include <filesystem>
 #include <string>
 
-#include <gtest/gtest.h>
-
-#include "core/output_folder.h"
+#include "fixtures/cached_test_data.h"
 #include "fixtures/synth_scan.h"
 
 namespace hw::reconstruct::test {
@@ -35,38 +28,12 @@ inline fixtures::SynthScanOptions TestScanOptions(const std::string& scene = "eq
   return o;
 }
 
-// Newest modification time of the fixtures libraries: a scan rendered before them may no
-// longer be what the fixtures render.
-inline fs::file_time_type FixturesBuildTime() {
-  // Not {}: libstdc++'s file clock counts from 2174, so real times are negative.
-  fs::file_time_type newest = fs::file_time_type::min();
-  for (const auto& entry : fs::directory_iterator(fs::path(HW_BINARY_DIR) / "fixtures")) {
-    if (entry.path().extension() == ".a") newest = std::max(newest, entry.last_write_time());
-  }
-  return newest;
-}
-
 // The folder of the scan `options` renders, under <build>/test-data/<name>, rendered now if
 // it is not there yet, a previous render did not finish, or the fixtures were rebuilt since.
 inline fs::path CachedScan(const std::string& name, const fixtures::SynthScanOptions& options) {
-  const fs::path root = fs::path(HW_BINARY_DIR) / "test-data";
-  fs::create_directories(root);
-  const fs::path folder = root / name;
-  const int lock = ::open((root / (name + ".lock")).c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-  EXPECT_GE(lock, 0);
-  ::flock(lock, LOCK_EX);
-  const bool complete = fs::exists(folder / "depth.txt") &&
-                        core::ProbeFolderRun(folder).state == core::FolderRunState::kComplete &&
-                        fs::last_write_time(folder / "depth.txt") > FixturesBuildTime();
-  if (!complete) {
-    fs::remove_all(folder);
-    core::OutputFolder out(folder, "reconstruct test scan");
+  return fixtures::test::CachedTestData(name, "depth.txt", [&](const fs::path& folder) {
     fixtures::SynthesizeScan(options, folder);
-    out.Commit();
-  }
-  ::flock(lock, LOCK_UN);
-  ::close(lock);
-  return folder;
+  });
 }
 
 }  // namespace hw::reconstruct::test
