@@ -39,6 +39,7 @@
 
 #include "bench/bench_timing.h"
 #include "calibrate/intrinsics_solver.h"
+#include "calibrate/synthetic_views.h"
 #include "calibrate/target_detect.h"
 #include "core/camera.h"
 #include "core/rig.h"
@@ -102,19 +103,6 @@ struct Problem {
   core::CameraModel truth;
 };
 
-core::CameraModel SyntheticCamera() {  // as calibrate/intrinsics_solver_test.cc
-  core::CameraModel camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.type = core::CameraModelType::kOpenCV;
-  camera.fx = 600;
-  camera.fy = 605;
-  camera.cx = 322;
-  camera.cy = 238;
-  camera.distortion = {-0.25, 0.08, 0.001, -0.0005, -0.01};
-  return camera;
-}
-
 // `count` random target poses 0.35-0.6 m away, tilted 10-40° about x and y, rolled up to
 // 20°, with every corner in the image; every corner observed with 0.3 px noise.
 Problem Synthetic(int count, double square_m) {
@@ -123,46 +111,21 @@ Problem Synthetic(int count, double square_m) {
   problem.target.rows = 6;
   problem.target.cols = 9;
   problem.target.square_m = square_m;
-  problem.truth = SyntheticCamera();
+  problem.truth = cal::test::SyntheticCamera();
   problem.has_truth = true;
   problem.width = problem.truth.width;
   problem.height = problem.truth.height;
-  const std::vector<Eigen::Vector3d> corners = core::TargetCorners(problem.target);
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : corners) centre += p / static_cast<double>(corners.size());
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<double> unit(0, 1);
-  std::normal_distribution<double> noise(0, 0.3);
-  auto tilt = [&] { return (unit(rng) < 0.5 ? -1 : 1) * (10 + 30 * unit(rng)) * M_PI / 180; };
-  int attempts = 0;
-  while (static_cast<int>(problem.views.size()) < count) {
-    if (++attempts > 1000000) {
-      std::fprintf(stderr, "no pose keeps a %g m board in the image; try a smaller --square\n",
-                   square_m);
-      std::exit(1);
-    }
-    const double tilt_x = tilt(), tilt_y = tilt();
-    const Eigen::Quaterniond rotation(
-        Eigen::AngleAxisd((unit(rng) - 0.5) * 40 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
-        Eigen::AngleAxisd(tilt_y, Eigen::Vector3d::UnitY()) *
-        Eigen::AngleAxisd(tilt_x, Eigen::Vector3d::UnitX()));
-    const double z = 0.35 + 0.25 * unit(rng);
-    const Eigen::Vector3d position(z * (unit(rng) - 0.5) * 0.4, z * (unit(rng) - 0.5) * 0.4, z);
-    const core::Rigid3d camera_from_target(rotation, position - rotation * centre);
-    cal::ViewObservation view;
-    bool inside = true;
-    for (size_t id = 0; id < corners.size() && inside; ++id) {
-      const Eigen::Vector3d p_cam = camera_from_target * corners[id];
-      const Eigen::Vector2d q = problem.truth.Project(p_cam);
-      inside = p_cam.z() > 0.1 && problem.truth.IsInImage(q);
-      view.corner_ids.push_back(static_cast<int>(id));
-      view.pixels.push_back(q + Eigen::Vector2d(noise(rng), noise(rng)));
-    }
-    if (inside) problem.views.push_back(std::move(view));
+  const std::vector<core::Rigid3d> poses =
+      cal::test::RandomTargetPoses(problem.truth, problem.target, count, false, 1);
+  if (static_cast<int>(poses.size()) < count) {
+    std::fprintf(stderr, "no pose keeps a %g m board in the image; try a smaller --square\n", square_m);
+    std::exit(1);
   }
+  problem.views = cal::test::ObserveTarget(problem.truth, problem.target, poses, 0.3, 2);
+  const size_t corners = core::TargetCorners(problem.target).size();
   std::printf("synthetic: %d views x %zu corners, %dx%d, opencv5 truth, 0.3 px noise, "
               "square %g m\n",
-              count, corners.size(), problem.width, problem.height, square_m);
+              count, corners, problem.width, problem.height, square_m);
   return problem;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "calibrate/synthetic_views.h"
 #include "core/camera.h"
 #include "core/cameramodel_io.h"
 #include "core/rig.h"
@@ -29,73 +30,17 @@ core::Target Chessboard() {  // 9 x 6 inner corners = 54, 4 cm squares
   return target;
 }
 
-core::CameraModel TruthCamera() {
-  core::CameraModel camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.type = core::CameraModelType::kOpenCV;
-  camera.fx = 600;
-  camera.fy = 605;
-  camera.cx = 322;
-  camera.cy = 238;
-  camera.distortion = {-0.25, 0.08, 0.001, -0.0005, -0.01};
-  return camera;
-}
+core::CameraModel TruthCamera() { return test::SyntheticCamera(); }
 
-// Target poses seen by the truth camera with every corner inside the image: 0.35-0.6 m away,
-// tilted 10-40 degrees about x and y (fronto_parallel: not tilted), rolled up to 20 degrees.
 std::vector<core::Rigid3d> RandomPoses(int count, bool fronto_parallel, unsigned seed,
                                        const core::Target& target = Chessboard()) {
-  const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : corners) centre += p / static_cast<double>(corners.size());
-  const core::CameraModel camera = TruthCamera();
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> unit(0, 1);
-  auto tilt = [&] { return (unit(rng) < 0.5 ? -1 : 1) * (10 + 30 * unit(rng)) * M_PI / 180; };
-  std::vector<core::Rigid3d> poses;
-  while (static_cast<int>(poses.size()) < count) {
-    const double tilt_x = fronto_parallel ? 0 : tilt(), tilt_y = fronto_parallel ? 0 : tilt();
-    const Eigen::Quaterniond rotation(
-        Eigen::AngleAxisd((unit(rng) - 0.5) * 40 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
-        Eigen::AngleAxisd(tilt_y, Eigen::Vector3d::UnitY()) *
-        Eigen::AngleAxisd(tilt_x, Eigen::Vector3d::UnitX()));
-    const double z = 0.35 + 0.25 * unit(rng);
-    const Eigen::Vector3d position(z * (unit(rng) - 0.5) * 0.4, z * (unit(rng) - 0.5) * 0.4, z);
-    const core::Rigid3d camera_from_target(rotation, position - rotation * centre);
-    bool inside = true;
-    for (const Eigen::Vector3d& p : corners) {
-      const Eigen::Vector3d p_cam = camera_from_target * p;
-      inside = inside && p_cam.z() > 0.1 && camera.IsInImage(camera.Project(p_cam));
-    }
-    if (inside) poses.push_back(camera_from_target);
-  }
-  return poses;
+  return test::RandomTargetPoses(TruthCamera(), target, count, fronto_parallel, seed);
 }
 
-// Every corner of `target` (with keep_fraction < 1: each kept with that probability, as a
-// detector missing some) projected by the truth camera, plus Gaussian noise.
 std::vector<ViewObservation> Observe(const std::vector<core::Rigid3d>& poses, double noise_px,
                                      unsigned seed, const core::Target& target = Chessboard(),
                                      double keep_fraction = 1) {
-  const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
-  const core::CameraModel camera = TruthCamera();
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0, noise_px);
-  std::vector<ViewObservation> views;
-  for (const core::Rigid3d& pose : poses) {
-    ViewObservation view;
-    for (size_t id = 0; id < corners.size(); ++id) {
-      if (keep_fraction < 1 && std::uniform_real_distribution<double>(0, 1)(rng) > keep_fraction) {
-        continue;
-      }
-      view.corner_ids.push_back(static_cast<int>(id));
-      view.pixels.push_back(camera.Project(pose * corners[id]) +
-                            Eigen::Vector2d(noise(rng), noise(rng)));
-    }
-    views.push_back(std::move(view));
-  }
-  return views;
+  return test::ObserveTarget(TruthCamera(), target, poses, noise_px, seed, keep_fraction);
 }
 
 TEST(SolveIntrinsics, MatchesTruthWithinItsCovariance) {

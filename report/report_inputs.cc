@@ -217,9 +217,6 @@ AnalysisRecord ReadAnalysisRecord(const fs::path& path) {
     im.mode = r.String(images[i], "mode", w);
     im.spot = r.String(images[i], "spot", w);
     im.span = r.Span(images[i], "span_c", w);
-    const Json& camera = r.At(images[i], "camera", w);
-    im.width = r.Integer(camera, "width", w + ".camera");
-    im.height = r.Integer(camera, "height", w + ".camera");
     if (im.file.empty() || im.file.find("..") != std::string::npos || fs::path(im.file).is_absolute()) {
       r.Fail(w + ".file", "must be a path inside the analysis folder, got '" + im.file + "'");
     }

@@ -16,7 +16,6 @@ namespace hw::report {
 struct ReportImageRecord {
   std::string file;  // relative to the analysis folder
   std::string view, mode, spot;
-  int width = 0, height = 0;
   analyze::Span span;
 };
 
