@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calibrate/mrcal_problem.h"
@@ -22,6 +23,7 @@ namespace {
 constexpr int kMinViews = 3;
 constexpr int kMinCornersPerView = 4;
 constexpr int kMaxOutlierIterations = 20;
+constexpr int kMaxShapeSteps = 10;
 // Largest relative standard error of the homography focal estimate accepted as a seed: 10 %
 // in f is well within mrcal's convergence basin; fronto-parallel views give 100 % or more.
 constexpr double kMaxSeedFocalRelativeError = 0.1;
@@ -168,9 +170,16 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   const std::vector<Eigen::Vector3d> corners_target = core::TargetCorners(target);
   CheckInputs(width_px, height_px, views, options, static_cast<int>(corners_target.size()));
 
+  TargetShapeModel shape;
+  if (options.estimate_target_shape && target.type == core::TargetType::kSquareGrid) {
+    shape.pixel_offset = true;
+    shape.knots_u = {-1, -0.75, -0.5, -0.25, 0, 0.25, 0.5, 0.75, 1};
+  } else if (options.estimate_target_shape && target.type == core::TargetType::kAprilGrid) {
+    shape.pixel_offset = true;
+  }
   MrcalProblem problem(
       options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8 : MRCAL_LENSMODEL_OPENCV5,
-      width_px, height_px, corners_target, views);
+      width_px, height_px, corners_target, views, std::move(shape));
   if (2 * problem.NumObservations() <= problem.NumState()) {
     throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
                                 " corners give " + std::to_string(2 * problem.NumObservations()) +
@@ -183,15 +192,25 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   problem.intrinsics[2] = (width_px - 1) / 2.0;
   problem.intrinsics[3] = (height_px - 1) / 2.0;
   problem.poses = SeedPoses(corners_target, f_px, width_px, height_px, views);
+  problem.UpdatePoints();
 
   if (options.staged) {
     problem.Optimize(/*core=*/false, /*distortion=*/false);
     problem.Optimize(true, false);
   }
-  problem.Optimize(true, true);
+  // Everything free; the target's shape parameters (if any) in turn with the rest until
+  // their step is below a micrometre (2-3 steps: the residuals are nearly linear in them).
+  const auto optimize_all = [&problem] {
+    problem.Optimize(true, true);
+    for (int step = 0; step < kMaxShapeSteps; ++step) {
+      if (problem.EstimateShapeStep() < 1e-6) break;
+      problem.Optimize(true, true);
+    }
+  };
+  optimize_all();
   for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
     if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
-    problem.Optimize(true, true);
+    optimize_all();
   }
 
   IntrinsicsResult result = problem.Result();

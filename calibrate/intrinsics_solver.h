@@ -28,6 +28,14 @@ struct IntrinsicsOptions {
   // true: solve in stages, poses only -> + core (fx fy cx cy) -> + distortion, each stage
   // seeded by the previous one (robust to a poor seed); false: everything at once.
   bool staged = true;
+  // Estimate, with the camera, how the squares the detector sees differ from the target's
+  // (mrcal_problem.h, TargetShapeModel): square_grid (a heated mask) the edges' shift as a
+  // function of the viewing angle (knots at tan = -1, -0.5, 0, 0.5, 1), aprilgrid a constant
+  // edge offset; chessboards nothing (their saddle corners do not move with the edges).
+  // Without it, on the fixtures' thermal sessions, the holes' apparent shrinkage (heat
+  // bleeding) and their side walls (seen only when they face the camera) bias the focal
+  // length by 3-4 sigma.
+  bool estimate_target_shape = true;
   // "" when valid, else a message naming the field, value and constraint.
   std::string Check() const;
 };
@@ -64,6 +72,14 @@ struct IntrinsicsResult {
   Eigen::MatrixXd state_covariance;
   // Its leading block: the covariance of mrcal_intrinsics with the poses marginalised.
   Eigen::MatrixXd intrinsics_covariance;
+  // The target shape (IntrinsicsOptions::estimate_target_shape; mrcal_problem.h,
+  // TargetShapeModel): the outward shift of the squares' edges, metres, at the viewing-angle
+  // tangents edge_shift_knots_u, and its standard deviation. Empty when not estimated.
+  // Marginalised out of the covariances above.
+  std::vector<double> edge_shift_knots_u, edge_shift_m, edge_shift_sigma_m;
+  // Per view, the shift of every edge in the image, pixels along its normal (> 0 outwards),
+  // and its standard deviation; empty when not estimated.
+  std::vector<double> view_edge_shift_px, view_edge_shift_sigma_px;
   double solve_seconds = 0;  // wall time of SolveIntrinsics
 };
 

@@ -7,6 +7,9 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
+
+#include <Eigen/Geometry>
 
 #include "core/cameramodel_io.h"
 
@@ -55,22 +58,142 @@ Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_
 
 MrcalProblem::MrcalProblem(mrcal_lensmodel_type_t type, int width_px, int height_px,
                            const std::vector<Eigen::Vector3d>& corners_target,
-                           const std::vector<ViewObservation>& views)
-    : imagersize_{width_px, height_px} {
+                           const std::vector<ViewObservation>& views, TargetShapeModel shape)
+    : imagersize_{width_px, height_px}, shape_(std::move(shape)), corners_(corners_target) {
   lensmodel_.type = type;
-  for (const Eigen::Vector3d& p : corners_target) points_.push_back({{p.x(), p.y(), p.z()}});
+  const int num_corners = static_cast<int>(corners_.size());
   for (size_t v = 0; v < views.size(); ++v) {
     view_begin_.push_back(static_cast<int>(observations_.size()));
     for (size_t k = 0; k < views[v].corner_ids.size(); ++k) {
       mrcal_observation_point_t observation{};
       observation.icam.intrinsics = 0;
       observation.icam.extrinsics = static_cast<int>(v);
-      observation.i_point = views[v].corner_ids[k];
+      observation.i_point = static_cast<int>(v) * num_corners + views[v].corner_ids[k];
       observation.px = {{views[v].pixels[k].x(), views[v].pixels[k].y(), 1.0}};
       observations_.push_back(observation);
     }
   }
   view_begin_.push_back(static_cast<int>(observations_.size()));
+  poses.resize(views.size());
+  shape_params = Eigen::VectorXd::Zero(NumShape());
+  UpdatePoints();
+}
+
+Eigen::VectorXd TargetShapeModel::Basis(double u) const {
+  const int n = static_cast<int>(knots_u.size());
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(n);
+  if (n == 1 || u <= knots_u.front()) {
+    w[0] = 1;
+  } else if (u >= knots_u.back()) {
+    w[n - 1] = 1;
+  } else {
+    const int j = static_cast<int>(std::upper_bound(knots_u.begin(), knots_u.end(), u) - knots_u.begin()) - 1;
+    const double t = (u - knots_u[static_cast<size_t>(j)]) / (knots_u[static_cast<size_t>(j + 1)] - knots_u[static_cast<size_t>(j)]);
+    w[j] = 1 - t;
+    w[j + 1] = t;
+  }
+  return w;
+}
+
+void MrcalProblem::UpdatePoints() {
+  const size_t num_corners = corners_.size();
+  const size_t num_views = view_begin_.size() - 1;
+  const int num_shape = NumShape();
+  points_.resize(num_views * num_corners);
+  shape_basis_.assign(num_shape > 0 ? points_.size() : 0, Eigen::MatrixXd::Zero(3, num_shape));
+  for (size_t v = 0; v < num_views; ++v) {
+    const Eigen::Matrix3d R =
+        core::QuaternionFromRodrigues({poses[v].r.x, poses[v].r.y, poses[v].r.z}).toRotationMatrix();
+    // The camera centre in the target frame: p_cam = R p + t = 0.
+    const Eigen::Vector3d c = -R.transpose() * Eigen::Vector3d(poses[v].t.x, poses[v].t.y, poses[v].t.z);
+    // A pose not yet known (the camera in the target plane or behind it) gives u = 0.
+    const double distance = c.z() < 0 ? -c.z() : std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < num_corners; ++k) {
+      Eigen::Vector3d p = corners_[k];
+      if (num_shape > 0) {
+        const size_t first = k / 4 * 4;  // core::TargetCorners: 4 consecutive ids per square
+        const Eigen::Vector3d centre =
+            0.25 * (corners_[first] + corners_[first + 1] + corners_[first + 2] + corners_[first + 3]);
+        // The corner's edges have outward normals (sx, 0) and (0, sy).
+        const double sx = corners_[k].x() > centre.x() ? 1 : -1, sy = corners_[k].y() > centre.y() ? 1 : -1;
+        const double ux = -sx * (c.x() - corners_[k].x()) / distance;
+        const double uy = -sy * (c.y() - corners_[k].y()) / distance;
+        Eigen::MatrixXd& basis = shape_basis_[v * num_corners + k];
+        const int first_knot = shape_.pixel_offset ? NumViews() : 0;
+        const int pixel_column = static_cast<int>(v);
+        if (shape_.pixel_offset && !intrinsics.empty() && std::isfinite(distance)) {
+          // Metres on the target per pixel of the edge's shift along its image normal: the
+          // image of a step n along the outward normal, its part across the edge's image t.
+          Eigen::Matrix<double, 2, 3> dq_dp_cam;
+          MrcalProject(lensmodel_, intrinsics, R * corners_[k] + Eigen::Vector3d(poses[v].t.x, poses[v].t.y, poses[v].t.z),
+                       &dq_dp_cam, nullptr);
+          const Eigen::Matrix<double, 2, 3> dq_dp = dq_dp_cam * R;
+          const auto metres_per_px = [&](const Eigen::Vector2d& across, const Eigen::Vector2d& along) {
+            const double cross = std::abs(across.x() * along.y() - across.y() * along.x());
+            return cross > 0 ? along.norm() / cross : 0.0;
+          };
+          basis(0, pixel_column) = sx * metres_per_px(dq_dp.col(0), dq_dp.col(1));
+          basis(1, pixel_column) = sy * metres_per_px(dq_dp.col(1), dq_dp.col(0));
+        }
+        if (!shape_.knots_u.empty()) {
+          const int n = static_cast<int>(shape_.knots_u.size());
+          basis.block(0, first_knot, 1, n) = sx * shape_.Basis(ux).transpose();
+          basis.block(1, first_knot, 1, n) = sy * shape_.Basis(uy).transpose();
+        }
+        p += basis * shape_params;
+      }
+      points_[v * num_corners + k] = {{p.x(), p.y(), p.z()}};
+    }
+  }
+}
+
+Eigen::RowVectorXd MrcalProblem::ShapePrior() const {
+  const int n = static_cast<int>(shape_.knots_u.size());
+  if (n < 2) return {};
+  const Eigen::VectorXd u = Eigen::Map<const Eigen::VectorXd>(shape_.knots_u.data(), n);
+  Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(NumShape());
+  row.tail(n) = (u.array() - u.mean()).matrix().transpose();
+  return row / row.norm();
+}
+
+double MrcalProblem::EstimateShapeStep() {
+  const int num_shape = NumShape();
+  if (num_shape == 0) return 0;
+  UpdatePoints();  // u and the metres per pixel at the current poses and intrinsics
+  Eigen::MatrixXd J;
+  const std::vector<Eigen::Vector2d> residuals = Residuals(&J);
+  Eigen::VectorXd r(2 * NumObservations());
+  for (int o = 0; o < NumObservations(); ++o) {
+    if (observations_[static_cast<size_t>(o)].px.z < 0) {
+      J.middleRows(2 * o, 2).setZero();
+      r.segment<2>(2 * o).setZero();
+    } else {
+      r.segment<2>(2 * o) = residuals[static_cast<size_t>(o)];
+    }
+  }
+  // r(state + dx, shape + ds) = r - J [dx; ds]: least squares over both, the shape's part
+  // kept; the gauge prior holds F's slope at zero.
+  Eigen::MatrixXd JtJ = J.transpose() * J;
+  Eigen::VectorXd Jtr = J.transpose() * r;
+  if (const Eigen::RowVectorXd prior = ShapePrior(); prior.size() > 0) {
+    const double weight = 1e6 * JtJ.diagonal().tail(num_shape).mean();
+    JtJ.bottomRightCorner(num_shape, num_shape) += weight * prior.transpose() * prior;
+    Jtr.tail(num_shape) -= weight * prior.transpose() * (prior * shape_params);
+  }
+  const Eigen::VectorXd ds = JtJ.ldlt().solve(Jtr).tail(num_shape);
+  if (!ds.allFinite()) throw std::runtime_error("intrinsics: the target shape parameters are not observable");
+  shape_params += ds;
+  UpdatePoints();
+  // In metres: a pixel offset's step converted at a typical ~1 mm per pixel.
+  double largest = 0;
+  for (int j = 0; j < num_shape; ++j) {
+    largest = std::max(largest, (shape_.pixel_offset && j < NumViews() ? 1e-3 : 1.0) * std::abs(ds[j]));
+  }
+  return largest;
+}
+
+Eigen::MatrixXd MrcalProblem::PointShapeJacobian(int o) const {
+  return shape_basis_[static_cast<size_t>(observations_[static_cast<size_t>(o)].i_point)];
 }
 
 int MrcalProblem::NumIntrinsics() const { return mrcal_lensmodel_num_params(&lensmodel_); }
@@ -162,7 +285,8 @@ Eigen::MatrixXd MrcalProblem::RegularizationJacobian() const {
 
 std::vector<Eigen::Vector2d> MrcalProblem::Residuals(Eigen::MatrixXd* J) const {
   const int n_intrinsics = NumIntrinsics();
-  if (J != nullptr) *J = Eigen::MatrixXd::Zero(2 * NumObservations(), NumState());
+  const int num_shape = NumShape();
+  if (J != nullptr) *J = Eigen::MatrixXd::Zero(2 * NumObservations(), NumState() + num_shape);
   std::vector<Eigen::Vector2d> residuals;
   residuals.reserve(observations_.size());
   Eigen::Matrix<double, 3, 6> dp_drt;
@@ -181,6 +305,13 @@ std::vector<Eigen::Vector2d> MrcalProblem::Residuals(Eigen::MatrixXd* J) const {
       if (J != nullptr) {
         J->block(2 * o, 0, 2, n_intrinsics) = dq_di;
         J->block(2 * o, n_intrinsics + 6 * static_cast<int>(v), 2, 6) = dq_dp * dp_drt;
+        if (num_shape > 0) {
+          // dp_cam/dp_target is the pose's rotation; g's dependence on the pose is left out
+          // (w times the change of a ratio of distances: second order).
+          const Eigen::Matrix3d R =
+              core::QuaternionFromRodrigues({poses[v].r.x, poses[v].r.y, poses[v].r.z}).toRotationMatrix();
+          J->block(2 * o, NumState(), 2, num_shape) = dq_dp * R * PointShapeJacobian(o);
+        }
       }
     }
   }
@@ -262,10 +393,12 @@ IntrinsicsResult MrcalProblem::Result() const {
     result.residuals_px.push_back(std::move(view_residuals));
     result.outlier.push_back(std::move(view_outlier));
   }
-  const int dof = 2 * inliers - NumState();
+  const int num_shape = NumShape();
+  const int num_unknowns = NumState() + num_shape;
+  const int dof = 2 * inliers - num_unknowns;
   if (inliers == 0 || dof <= 0) {
     throw std::runtime_error("intrinsics: " + std::to_string(2 * inliers) +
-                             " inlier measurements for " + std::to_string(NumState()) +
+                             " inlier measurements for " + std::to_string(num_unknowns) +
                              " unknowns: the problem is not overdetermined");
   }
   result.rms_px = std::sqrt(sum_squared / inliers);
@@ -274,14 +407,32 @@ IntrinsicsResult MrcalProblem::Result() const {
   Eigen::MatrixXd JtJ = J.transpose() * J;
   const Eigen::MatrixXd J_regularization = RegularizationJacobian();
   JtJ.topLeftCorner(n_intrinsics, n_intrinsics) += J_regularization.transpose() * J_regularization;
+  if (const Eigen::RowVectorXd prior = ShapePrior(); prior.size() > 0) {
+    // The gauge direction (module comment): pinned, it adds no uncertainty to the rest.
+    const double weight = 1e6 * JtJ.diagonal().tail(num_shape).mean();
+    JtJ.bottomRightCorner(num_shape, num_shape) += weight * prior.transpose() * prior;
+  }
   const Eigen::LLT<Eigen::MatrixXd> llt(JtJ);
   if (llt.info() != Eigen::Success) {
     throw std::runtime_error(
         "intrinsics: J^T J is singular at the optimum: the views do not "
         "constrain every intrinsic parameter and pose");
   }
-  result.state_covariance = result.observation_sigma_px * result.observation_sigma_px *
-                            llt.solve(Eigen::MatrixXd::Identity(NumState(), NumState()));
+  // The shape parameters are marginalised: the state's block of the full inverse.
+  const Eigen::MatrixXd covariance = result.observation_sigma_px * result.observation_sigma_px *
+                                     llt.solve(Eigen::MatrixXd::Identity(num_unknowns, num_unknowns));
+  result.state_covariance = covariance.topLeftCorner(NumState(), NumState());
+  result.edge_shift_knots_u = shape_.knots_u;
+  for (int j = 0; j < num_shape; ++j) {
+    const double sigma = std::sqrt(covariance(NumState() + j, NumState() + j));
+    if (shape_.pixel_offset && j < NumViews()) {
+      result.view_edge_shift_px.push_back(shape_params[j]);
+      result.view_edge_shift_sigma_px.push_back(sigma);
+    } else {
+      result.edge_shift_m.push_back(shape_params[j]);
+      result.edge_shift_sigma_m.push_back(sigma);
+    }
+  }
   result.intrinsics_covariance = result.state_covariance.topLeftCorner(n_intrinsics, n_intrinsics);
   return result;
 }

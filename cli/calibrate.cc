@@ -80,6 +80,9 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
     if (solved != r.solved_views.end()) {
       const size_t k = static_cast<size_t>(solved - r.solved_views.begin());
       v.Number("rms_px", s.view_rms_px[k]);
+      if (k < s.view_edge_shift_px.size()) {
+        v.Number("edge_shift_px", s.view_edge_shift_px[k]).Number("edge_shift_sigma_px", s.view_edge_shift_sigma_px[k]);
+      }
       const core::Rigid3d& pose = s.camera_from_target[k];
       v.Add("camera_from_target", core::JsonObject()
                                       .Add("q_xyzw", ArrayJson({pose.rotation.x(), pose.rotation.y(), pose.rotation.z(), pose.rotation.w()}))
@@ -111,6 +114,18 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
   root.Number("observation_sigma_px", s.observation_sigma_px)
       .String("observation_sigma_is", "per coordinate, from the inlier residuals and the degrees of freedom");
   root.Int("outliers", s.outliers);
+  if (!s.edge_shift_m.empty()) {
+    root.Add("target_shape",
+             core::JsonObject()
+                 .String("what", "outward shift of the squares' edges seen by the detector vs the target's, on the "
+                                 "target as a function of the tangent of the viewing angle across the edge (> 0: the "
+                                 "camera faces that edge's side wall), plus per view a shift in the image (views[]."
+                                 "edge_shift_px); estimated with the camera, marginalised out")
+                 .Add("tan_view_angle", ArrayJson(s.edge_shift_knots_u))
+                 .Add("edge_shift_m", ArrayJson(s.edge_shift_m))
+                 .Add("edge_shift_sigma_m", ArrayJson(s.edge_shift_sigma_m))
+                 .str());
+  }
   root.Number("coverage", r.coverage).Add("coverage_cells", StringPrintf("[%d, %d]", kCoverageCols, kCoverageRows));
   root.Add("uncertainty", core::JsonObject()
                               .Number("range_m", r.profile.uncertainty_range_m)
@@ -288,6 +303,21 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
                         std::sqrt(r.solve.intrinsics_covariance(3, 3)));
   }
   out += "\n";
+  if (!r.solve.view_edge_shift_px.empty()) {
+    std::vector<double> px = r.solve.view_edge_shift_px;
+    std::sort(px.begin(), px.end());
+    out += StringPrintf("Target     edge shift in the image %+.2f px (median of the views, %+.2f to %+.2f)\n",
+                        px[px.size() / 2], px.front(), px.back());
+  }
+  if (!r.solve.edge_shift_m.empty()) {
+    out += "           edge shift on the target (mm, 1 sigma)";
+    for (size_t j = 0; j < r.solve.edge_shift_m.size(); ++j) {
+      out += StringPrintf("%s %+.2f ± %.2f", j == 0 ? "" : ",", 1e3 * r.solve.edge_shift_m[j],
+                          1e3 * r.solve.edge_shift_sigma_m[j]);
+      if (r.solve.edge_shift_m.size() > 1) out += StringPrintf(" @%+.2g", r.solve.edge_shift_knots_u[j]);
+    }
+    out += r.solve.edge_shift_m.size() > 1 ? " (@ tan of the viewing angle)\n" : "\n";
+  }
   out += StringPrintf("Residuals  RMS %.3f px (corner norms), worst %.3f px, %d outliers; solved in %.2f s\n", r.solve.rms_px,
                       r.solve.worst_px, r.solve.outliers, r.solve.solve_seconds);
   out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
@@ -313,6 +343,9 @@ int RunCalibrate(int argc, char** argv) {
   std::string model = "opencv5";
   intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8")->capture_default_str();
   intrinsics->add_option("--profile", o.profile_path, "qa.yaml: the QA thresholds (README)");
+  bool no_target_shape = false;
+  intrinsics->add_flag("--no-target-shape", no_target_shape,
+                       "do not estimate the squares' apparent edge shift with the camera (square_grid, aprilgrid)");
   intrinsics->add_option("--rig", o.rig_path, "rig.yaml to merge the camera into; default: the scan's");
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
@@ -326,6 +359,7 @@ int RunCalibrate(int argc, char** argv) {
       throw UsageError("--model: must be opencv5 or opencv8 (mrcal's splined model is not supported yet), got '" +
                        model + "'");
     }
+    o.solver.estimate_target_shape = !no_target_shape;
     ThrowIfInvalid(o.Check());
     const IntrinsicsCommandResult result = CalibrateIntrinsics(o, common.quiet);
     if (!common.quiet) std::cout << FormatIntrinsicsSummary(result, o.out_folder) << std::flush;
