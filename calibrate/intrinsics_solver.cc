@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "calibrate/mrcal_problem.h"
+#include "core/camera_mrcal.h"
 #include "core/cameramodel_io.h"
 #include "core/option_check.h"
 
@@ -149,11 +150,55 @@ std::vector<mrcal_pose_t> SeedPoses(const std::vector<Eigen::Vector3d>& corners_
   return poses;
 }
 
+mrcal_lensmodel_t ParametricLensModel(LensModel model) {
+  mrcal_lensmodel_t lensmodel{};
+  // A splined solve starts from opencv8, the richest parametric model (mrcal's workflow).
+  lensmodel.type = model == LensModel::kOpenCv5 ? MRCAL_LENSMODEL_OPENCV5 : MRCAL_LENSMODEL_OPENCV8;
+  return lensmodel;
+}
+
+void CheckOverdetermined(const MrcalProblem& problem, const std::string& hint) {
+  if (2 * problem.NumObservations() <= problem.NumState()) {
+    throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
+                                " corners give " + std::to_string(2 * problem.NumObservations()) +
+                                " measurements for " + std::to_string(problem.NumState()) +
+                                " unknowns (intrinsics and 6 per view): more corners are needed" +
+                                hint);
+  }
+}
+
+// The seeded problem solved: staged as asked (the poses alone, then with the core), then
+// everything, then the outlier loop. core_free = false keeps the core as seeded throughout.
+void SolveSeeded(MrcalProblem& problem, const IntrinsicsOptions& options, bool core_free) {
+  if (options.staged) {
+    problem.Optimize(/*core=*/false, /*distortion=*/false);
+    if (core_free) problem.Optimize(true, false);
+  }
+  problem.Optimize(core_free, true);
+  for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
+    if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
+    problem.Optimize(core_free, true);
+  }
+}
+
 }  // namespace
 
 std::string IntrinsicsOptions::Check() const {
   if (!(outlier_sigmas > 1 && outlier_sigmas <= 100)) {
     return core::OptionFail("outlier_sigmas", outlier_sigmas, "in (1, 100]");
+  }
+  if (spline_order != 2 && spline_order != 3) {
+    return core::OptionFail("spline_order", spline_order, "2 or 3");
+  }
+  if (spline_nx != 0 && (spline_nx < 4 || spline_nx > 64)) {
+    return core::OptionFail("spline_nx", spline_nx, "0 (automatic) or in [4, 64]");
+  }
+  if (spline_ny != 0 && (spline_ny < 4 || spline_ny > 64)) {
+    return core::OptionFail("spline_ny", spline_ny, "0 (automatic) or in [4, 64]");
+  }
+  if (spline_fov_x_deg != 0 && (spline_fov_x_deg < 1 || spline_fov_x_deg > 179)) {
+    return core::OptionFail("spline_fov_x_deg", spline_fov_x_deg,
+                            "0 (automatic) or in [1, 179] degrees");
   }
   return "";
 }
@@ -168,33 +213,37 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   const std::vector<Eigen::Vector3d> corners_target = core::TargetCorners(target);
   CheckInputs(width_px, height_px, views, options, static_cast<int>(corners_target.size()));
 
-  MrcalProblem problem(
-      options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8 : MRCAL_LENSMODEL_OPENCV5,
-      width_px, height_px, corners_target, views);
-  if (2 * problem.NumObservations() <= problem.NumState()) {
-    throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
-                                " corners give " + std::to_string(2 * problem.NumObservations()) +
-                                " measurements for " + std::to_string(problem.NumState()) +
-                                " unknowns (intrinsics and 6 per view): more corners are needed");
-  }
+  MrcalProblem problem(ParametricLensModel(options.model), width_px, height_px, corners_target,
+                       views);
+  CheckOverdetermined(problem, "");
   const double f_px = SeedFocalPx(corners_target, width_px, height_px, views);
   problem.intrinsics.assign(static_cast<size_t>(problem.NumIntrinsics()), 0.0);
   problem.intrinsics[0] = problem.intrinsics[1] = f_px;
   problem.intrinsics[2] = (width_px - 1) / 2.0;
   problem.intrinsics[3] = (height_px - 1) / 2.0;
   problem.poses = SeedPoses(corners_target, f_px, width_px, height_px, views);
+  SolveSeeded(problem, options, /*core_free=*/true);
 
-  if (options.staged) {
-    problem.Optimize(/*core=*/false, /*distortion=*/false);
-    problem.Optimize(true, false);
+  IntrinsicsResult result;
+  if (options.model != LensModel::kSplined) {
+    result = problem.Result();
+  } else {
+    const core::CameraModel parametric = problem.Result().camera;
+    const core::SplinedConfig config = ChooseSplinedConfig(options, parametric);
+    const core::CameraModel seed = SplinedApproximation(parametric, config);
+    MrcalProblem splined(core::MrcalLensModel(seed), width_px, height_px, corners_target, views);
+    CheckOverdetermined(splined, " (or fewer spline knots: " + std::to_string(config.nx) + " x " +
+                                     std::to_string(config.ny) + " now)");
+    const Eigen::VectorXd params = seed.Params();
+    splined.intrinsics.assign(params.data(), params.data() + params.size());
+    splined.poses = problem.poses;
+    // The core stays the opencv8 fit's: it is (nearly) redundant with the spline, which
+    // can shift and scale u as well, so solving both leaves J^T J (nearly) singular; mrcal
+    // locks it for its splined models likewise.
+    SolveSeeded(splined, options, /*core_free=*/false);
+    result = splined.Result(/*core_free=*/false);
+    result.parametric_camera = parametric;
   }
-  problem.Optimize(true, true);
-  for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
-    if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
-    problem.Optimize(true, true);
-  }
-
-  IntrinsicsResult result = problem.Result();
   result.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -27,7 +27,9 @@ Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_
 
 class MrcalProblem {
  public:
-  MrcalProblem(mrcal_lensmodel_type_t type, int width_px, int height_px,
+  // `lensmodel`: LENSMODEL_OPENCV5, LENSMODEL_OPENCV8 or a configured
+  // LENSMODEL_SPLINED_STEREOGRAPHIC (core::MrcalLensModel).
+  MrcalProblem(const mrcal_lensmodel_t& lensmodel, int width_px, int height_px,
                const std::vector<Eigen::Vector3d>& corners_target,
                const std::vector<ViewObservation>& views);
 
@@ -36,8 +38,8 @@ class MrcalProblem {
   int NumObservations() const { return static_cast<int>(observations_.size()); }
 
   // mrcal_optimize from the current intrinsics and poses, all poses free, the core and the
-  // distortion free as asked, no regularisation, no mrcal outlier rejection; the known
-  // outliers are left out. Throws std::runtime_error when mrcal fails.
+  // distortion free as asked, mrcal's regularisation on, no mrcal outlier rejection; the
+  // known outliers are left out. Throws std::runtime_error when mrcal fails.
   void Optimize(bool optimize_core, bool optimize_distortion);
 
   // Marks as outliers the inlier corners whose residual norm exceeds `sigmas` times the RMS
@@ -45,10 +47,12 @@ class MrcalProblem {
   int MarkOutliers(double sigmas);
 
   // The result at the current state, with its covariance (throws std::runtime_error when
-  // J^T J is singular, e.g. more unknowns than inlier measurements).
-  IntrinsicsResult Result() const;
+  // J^T J is singular, e.g. more unknowns than inlier measurements). core_free = false: the
+  // core (fx fy cx cy) was held fixed (splined models), so it has zero covariance and does
+  // not count as an unknown.
+  IntrinsicsResult Result(bool core_free = true) const;
 
-  std::vector<double> intrinsics;   // mrcal order: fx fy cx cy k...
+  std::vector<double> intrinsics;   // mrcal order: fx fy cx cy k... (or spline controls)
   std::vector<mrcal_pose_t> poses;  // rt camera_from_target per view
 
  private:

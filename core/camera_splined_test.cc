@@ -21,7 +21,7 @@ namespace {
 
 using test::SplinedTestCamera;
 
-// Splined test cameras: the default (16 x 12 cubic, 70 degrees across a 65-degree image),
+// Splined test cameras: the default (16 x 13 cubic, 80 degrees across a 66-degree image),
 // a quadratic one, and a wide one (fov_x 120 degrees on 115, corners 70 degrees off axis).
 std::vector<CameraModel> TestCameras() {
   return {SplinedTestCamera(),
@@ -88,7 +88,7 @@ TEST(SplinedCameraTest, SplineReproducesTheSampledSurface) {
                              -0.08 * u.y() * r2 + 1e-3 * (r2 + 2 * u.y() * u.y()) + 2e-3 * u.x() * u.y());
     worst = std::max(worst, (camera.Distort(xy) - (u + du)).norm());
   }
-  std::printf("splined 16 x 12: max |Distort - (u + du(u))| = %.2e\n", worst);
+  std::printf("splined 16 x 13: max |Distort - (u + du(u))| = %.2e\n", worst);
   EXPECT_LT(worst, 3e-3);
 }
 
@@ -193,8 +193,8 @@ TEST(SplinedCameraTest, CheckNamesTheField) {
   EXPECT_EQ(check([](CameraModel& c) { c.splined.fov_x_deg = 180; }),
             "splined.fov_x_deg: must be in [1, 179] degrees, got 180");
   EXPECT_EQ(check([](CameraModel& c) { c.distortion.pop_back(); }),
-            "distortion: splined with nx = 16, ny = 12 needs 2 nx ny = 384 control values, got "
-            "383");
+            "distortion: splined with nx = 16, ny = 13 needs 2 nx ny = 416 control values, got "
+            "415");
   EXPECT_EQ(check([](CameraModel& c) { c.distortion[7] = std::numeric_limits<double>::quiet_NaN(); }),
             "distortion[7]: must be finite, got nan");
   EXPECT_EQ(check([](CameraModel& c) { c.fx = 0; }), "fx: must be in [1, 1e6] px, got 0");

@@ -515,7 +515,7 @@ TEST(CameraModelIoTest, RoundTripsASplinedCamera) {
   CameraModel camera = test::SplinedTestCamera();
   camera.distortion[3] = 1.0 / 3.0 * 1e-2;  // all 17 digits
   EXPECT_EQ(MrcalLensModelName(camera),
-            "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=70");
+            "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=13_fov_x_deg=80");
   const Rigid3d extrinsics(Eigen::Quaterniond(0.9, -0.1, 0.3, 1e-9).normalized(),
                            Eigen::Vector3d(0.03, -0.25, 0.001));
   WriteMrcalCameraModel(dir / "splined.cameramodel", camera, extrinsics);

@@ -16,7 +16,7 @@ namespace hw::core::test {
 // du = k_radial u |u|^2 (k_radial < 0: barrel) plus a small decentring term, sampled at the
 // knots (a smooth surface the spline represents nearly exactly).
 inline CameraModel SplinedTestCamera(int width = 640, int height = 480, double f_px = 500,
-                                     SplinedConfig config = {3, 16, 12, 70},
+                                     SplinedConfig config = {3, 16, 13, 80},
                                      double k_radial = -0.08) {
   CameraModel camera;
   camera.width = width;
