@@ -1,10 +1,12 @@
 #include "cli/calibrate.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <tuple>
 
 #include "calibrate/diagnostics.h"
 #include "calibrate/image_source.h"
@@ -34,7 +36,17 @@ core::Stream StreamOf(const std::string& camera) {
   return camera == "thermal" ? core::Stream::kThermal : camera == "rgb" ? core::Stream::kRgb : core::Stream::kDepth;
 }
 
-std::string ModelName(calibrate::LensModel m) { return m == calibrate::LensModel::kOpenCv5 ? "opencv5" : "opencv8"; }
+std::string ModelName(calibrate::LensModel m) {
+  switch (m) {
+    case calibrate::LensModel::kOpenCv5: return "opencv5";
+    case calibrate::LensModel::kOpenCv8: return "opencv8";
+    case calibrate::LensModel::kSplined: return "splined";
+  }
+  return "unknown";
+}
+
+// Cells of the coverage grid per side sampled for the model difference: 5 × 5 points each.
+constexpr int kDifferencePointsPerCell = 5;
 
 calibrate::Detection Detect(const cv::Mat& image, const core::Target& target, const std::string& name) {
   switch (target.type) {
@@ -68,6 +80,14 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
   core::JsonObject camera;
   camera.Int("width", c.width).Int("height", c.height).String("model", core::MrcalLensModelName(c));
   camera.Number("fx", c.fx).Number("fy", c.fy).Number("cx", c.cx).Number("cy", c.cy).Add("distortion", ArrayJson(c.distortion));
+  if (c.type == core::CameraModelType::kSplined) {
+    camera.Add("splined", core::JsonObject()
+                              .Int("order", c.splined.order)
+                              .Int("nx", c.splined.nx)
+                              .Int("ny", c.splined.ny)
+                              .Int("fov_x_deg", c.splined.fov_x_deg)
+                              .str());
+  }
   core::JsonObject mrcal;
   mrcal.String("lensmodel", s.mrcal_lensmodel).Add("intrinsics", ArrayJson(s.mrcal_intrinsics)).Add("intrinsics_sigma", ArrayJson(sigmas));
   std::vector<std::string> views;
@@ -112,6 +132,19 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
       .String("observation_sigma_is", "per coordinate, from the inlier residuals and the degrees of freedom");
   root.Int("outliers", s.outliers);
   root.Number("coverage", r.coverage).Add("coverage_cells", StringPrintf("[%d, %d]", kCoverageCols, kCoverageRows));
+  if (r.model_difference && s.parametric_camera) {
+    const calibrate::ModelDifference& d = *r.model_difference;
+    root.Add("model_difference", core::JsonObject()
+                                     .String("between", s.mrcal_lensmodel + " and " + core::MrcalLensModelName(*s.parametric_camera))
+                                     .String("is", "pixel difference over the covered cells, after the best-fitting rotation "
+                                                   "(mrcal-show-projection-diff's idea, at infinity): how far the parametric "
+                                                   "model is from the splined one where there is data")
+                                     .Number("rms_px", d.rms_px)
+                                     .Number("worst_px", d.worst_px)
+                                     .Int("points", d.points)
+                                     .Number("rotation_deg", d.rotation_rad * 180 / M_PI)
+                                     .str());
+  }
   root.Add("uncertainty", core::JsonObject()
                               .Number("range_m", r.profile.uncertainty_range_m)
                               .Add("grid", StringPrintf("[%d, %d]", r.grid_cols, r.grid_rows))
@@ -130,6 +163,20 @@ std::string IntrinsicsCommandOptions::Check() const {
   if (out_folder.empty()) return "--out: must be given";
   if (camera != "thermal" && camera != "rgb" && camera != "depth") {
     return "--camera: must be thermal, rgb or depth, got '" + camera + "'";
+  }
+  // The spline's options by their command-line names (IntrinsicsOptions::Check names fields).
+  if (solver.spline_order != 2 && solver.spline_order != 3) {
+    return "--spline-order: must be 2 or 3, got " + std::to_string(solver.spline_order);
+  }
+  const std::array<std::tuple<const char*, int, int>, 3> counts{{{"--spline-nx", solver.spline_nx, 64},
+                                                                 {"--spline-ny", solver.spline_ny, 64},
+                                                                 {"--spline-fov-deg", solver.spline_fov_x_deg, 179}}};
+  for (const auto& [name, value, max] : counts) {
+    const int min = std::string(name) == "--spline-fov-deg" ? 1 : 4;
+    if (value != 0 && (value < min || value > max)) {
+      return std::string(name) + ": must be in [" + std::to_string(min) + ", " + std::to_string(max) +
+             "] (or 0: chosen from the image), got " + std::to_string(value);
+    }
   }
   if (const std::string p = solver.Check(); !p.empty()) return p;
   return "";
@@ -213,6 +260,23 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
     }
   }
   m.coverage = r.coverage;
+  if (r.solve.parametric_camera) {
+    // Points spread over every covered cell (none elsewhere: there the spline is regularised
+    // towards its seed, not fitted).
+    std::vector<Eigen::Vector2d> pixels;
+    for (int cy = 0; cy < kCoverageRows; ++cy) {
+      for (int cx = 0; cx < kCoverageCols; ++cx) {
+        if (!covered[static_cast<size_t>(cy * kCoverageCols + cx)]) continue;
+        for (int j = 0; j < kDifferencePointsPerCell; ++j) {
+          for (int i = 0; i < kDifferencePointsPerCell; ++i) {
+            pixels.emplace_back((cx + (i + 0.5) / kDifferencePointsPerCell) * width / kCoverageCols - 0.5,
+                                (cy + (j + 0.5) / kDifferencePointsPerCell) * height / kCoverageRows - 0.5);
+          }
+        }
+      }
+    }
+    r.model_difference = calibrate::ProjectionDifference(r.solve.camera, *r.solve.parametric_camera, pixels);
+  }
   r.checks = calibrate::EvaluateQa(r.profile, m);
   r.pass = calibrate::AllPass(r.checks);
 
@@ -243,10 +307,8 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
                                                            StringPrintf("projection uncertainty (1 sigma) at %g m",
                                                                         r.profile.uncertainty_range_m)));
   r.written = {"diagnostics/"};
-  if (r.solve.mrcal_lensmodel.rfind("LENSMODEL_OPENCV", 0) == 0) {
-    core::WriteMrcalCameraModel(o.out_folder / "camera.cameramodel", r.solve.camera);
-    r.written.push_back("camera.cameramodel");
-  }
+  core::WriteMrcalCameraModel(o.out_folder / "camera.cameramodel", r.solve.camera);
+  r.written.push_back("camera.cameramodel");
   if (rig) {
     core::Rig merged = *rig;
     if (o.camera == "thermal") {
@@ -290,6 +352,13 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
   out += "\n";
   out += StringPrintf("Residuals  RMS %.3f px (corner norms), worst %.3f px, %d outliers; solved in %.2f s\n", r.solve.rms_px,
                       r.solve.worst_px, r.solve.outliers, r.solve.solve_seconds);
+  if (r.model_difference) {
+    out += StringPrintf("Model diff splined vs its opencv8 seed over the covered cells: RMS %.3f px, worst %.3f px%s\n",
+                        r.model_difference->rms_px, r.model_difference->worst_px,
+                        r.model_difference->worst_px > 0.5
+                            ? " (large: opencv8 misfits the lens, or too few views pin the spline down)"
+                            : " (opencv8 would do)");
+  }
   out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
   for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
   std::string files;
@@ -311,7 +380,13 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--target", o.target_path, "target.yaml; default: <images>/target.yaml");
   intrinsics->add_option("--camera", o.camera, "thermal | rgb | depth")->capture_default_str();
   std::string model = "opencv5";
-  intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8")->capture_default_str();
+  intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8 | splined (mrcal's splined stereographic)")
+      ->capture_default_str();
+  intrinsics->add_option("--spline-order", o.solver.spline_order, "splined: 2 or 3")->capture_default_str();
+  intrinsics->add_option("--spline-nx", o.solver.spline_nx, "splined: knots across, [4, 64]; default ~1 per 40 px in [8, 30]");
+  intrinsics->add_option("--spline-ny", o.solver.spline_ny, "splined: knots down, [4, 64]; default: to cover the image");
+  intrinsics->add_option("--spline-fov-deg", o.solver.spline_fov_x_deg,
+                         "splined: horizontal field of view the spline spans, [1, 179] degrees; default: the lens's + 5 %");
   intrinsics->add_option("--profile", o.profile_path, "qa.yaml: the QA thresholds (README)");
   intrinsics->add_option("--rig", o.rig_path, "rig.yaml to merge the camera into; default: the scan's");
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
@@ -322,9 +397,10 @@ int RunCalibrate(int argc, char** argv) {
       o.solver.model = calibrate::LensModel::kOpenCv5;
     } else if (model == "opencv8") {
       o.solver.model = calibrate::LensModel::kOpenCv8;
+    } else if (model == "splined") {
+      o.solver.model = calibrate::LensModel::kSplined;
     } else {
-      throw UsageError("--model: must be opencv5 or opencv8 (mrcal's splined model is not supported yet), got '" +
-                       model + "'");
+      throw UsageError("--model: must be opencv5, opencv8 or splined, got '" + model + "'");
     }
     ThrowIfInvalid(o.Check());
     const IntrinsicsCommandResult result = CalibrateIntrinsics(o, common.quiet);
