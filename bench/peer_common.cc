@@ -95,7 +95,18 @@ DepthFrames::DepthFrames(const PeerOptions& options)
   cy_ = camera.cy;
   bool distorted = false;
   for (const double k : camera.distortion) distorted = distorted || k != 0;
-  if (distorted) {
+  if (camera.type == core::CameraModelType::kSplined) {
+    // OpenCV has no splined model: the same map (pinhole pixel -> camera pixel) by Project.
+    undistort_map_x_.create(height_, width_, CV_32FC1);
+    undistort_map_y_.create(height_, width_, CV_32FC1);
+    for (int v = 0; v < height_; ++v) {
+      for (int u = 0; u < width_; ++u) {
+        const Eigen::Vector2d q = camera.Project(Eigen::Vector3d((u - cx_) / fx_, (v - cy_) / fy_, 1));
+        undistort_map_x_.at<float>(v, u) = static_cast<float>(q.x());
+        undistort_map_y_.at<float>(v, u) = static_cast<float>(q.y());
+      }
+    }
+  } else if (distorted) {
     // Same pinhole as the distorted camera: the peers take pinhole depth only.
     const cv::Matx33d K(fx_, 0, cx_, 0, fy_, cy_, 0, 0, 1);
     cv::initUndistortRectifyMap(K, camera.distortion, cv::noArray(), K,

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "calibrate/mrcal_problem.h"
+#include "core/camera_mrcal.h"
 #include "core/cameramodel_io.h"
 #include "core/option_check.h"
 
@@ -151,11 +152,77 @@ std::vector<mrcal_pose_t> SeedPoses(const std::vector<Eigen::Vector3d>& corners_
   return poses;
 }
 
+mrcal_lensmodel_t ParametricLensModel(LensModel model) {
+  mrcal_lensmodel_t lensmodel{};
+  // A splined solve starts from opencv8, the richest parametric model (mrcal's workflow).
+  lensmodel.type = model == LensModel::kOpenCv5 ? MRCAL_LENSMODEL_OPENCV5 : MRCAL_LENSMODEL_OPENCV8;
+  return lensmodel;
+}
+
+void CheckOverdetermined(const MrcalProblem& problem, const std::string& hint) {
+  if (2 * problem.NumObservations() <= problem.NumState()) {
+    throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
+                                " corners give " + std::to_string(2 * problem.NumObservations()) +
+                                " measurements for " + std::to_string(problem.NumState()) +
+                                " unknowns (intrinsics and 6 per view): more corners are needed" +
+                                hint);
+  }
+}
+
+// The seeded problem solved: staged as asked (the poses alone, then with the core), then
+// everything, then the outlier loop. core_free = false keeps the core as seeded throughout.
+void SolveSeeded(MrcalProblem& problem, const IntrinsicsOptions& options, bool core_free) {
+  if (options.staged) {
+    problem.Optimize(/*core=*/false, /*distortion=*/false);
+    if (core_free) problem.Optimize(true, false);
+  }
+  // Everything free; the target's shape parameters (if any) in turn with the rest until
+  // their step is below a micrometre (2-3 steps: the residuals are nearly linear in them).
+  const auto optimize_all = [&] {
+    problem.Optimize(core_free, true);
+    for (int step = 0; step < kMaxShapeSteps; ++step) {
+      if (problem.EstimateShapeStep() < 1e-6) break;
+      problem.Optimize(core_free, true);
+    }
+  };
+  optimize_all();
+  for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
+    if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
+    optimize_all();
+  }
+}
+
+// The target shape parameters estimated for `target` (mrcal_problem.h, TargetShapeModel):
+// square_grid (a heated mask) a shift in the image and F(u) on knots tan = -1 ... 1 every
+// 0.25 (u's range in practice: views tilted up to 45 degrees; the spacing resolves the bled
+// background's parallax, which saturates within |u| ~ 0.2 on the fixtures' masks);
+// aprilgrid the shift in the image; chessboards nothing.
+TargetShapeModel ShapeModel(const core::Target& target, const IntrinsicsOptions& options) {
+  TargetShapeModel shape;
+  if (!options.estimate_target_shape || target.type == core::TargetType::kChessboard) return shape;
+  shape.pixel_offset = true;
+  if (target.type == core::TargetType::kSquareGrid) shape.knots_u = {-1, -0.75, -0.5, -0.25, 0, 0.25, 0.5, 0.75, 1};
+  return shape;
+}
+
 }  // namespace
 
 std::string IntrinsicsOptions::Check() const {
   if (!(outlier_sigmas > 1 && outlier_sigmas <= 100)) {
     return core::OptionFail("outlier_sigmas", outlier_sigmas, "in (1, 100]");
+  }
+  if (spline_order != 2 && spline_order != 3) {
+    return core::OptionFail("spline_order", spline_order, "2 or 3");
+  }
+  if (spline_nx != 0 && (spline_nx < 4 || spline_nx > 64)) {
+    return core::OptionFail("spline_nx", spline_nx, "0 (automatic) or in [4, 64]");
+  }
+  if (spline_ny != 0 && (spline_ny < 4 || spline_ny > 64)) {
+    return core::OptionFail("spline_ny", spline_ny, "0 (automatic) or in [4, 64]");
+  }
+  if (spline_fov_x_deg != 0 && (spline_fov_x_deg < 1 || spline_fov_x_deg > 179)) {
+    return core::OptionFail("spline_fov_x_deg", spline_fov_x_deg,
+                            "0 (automatic) or in [1, 179] degrees");
   }
   return "";
 }
@@ -170,22 +237,9 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   const std::vector<Eigen::Vector3d> corners_target = core::TargetCorners(target);
   CheckInputs(width_px, height_px, views, options, static_cast<int>(corners_target.size()));
 
-  TargetShapeModel shape;
-  if (options.estimate_target_shape && target.type == core::TargetType::kSquareGrid) {
-    shape.pixel_offset = true;
-    shape.knots_u = {-1, -0.75, -0.5, -0.25, 0, 0.25, 0.5, 0.75, 1};
-  } else if (options.estimate_target_shape && target.type == core::TargetType::kAprilGrid) {
-    shape.pixel_offset = true;
-  }
-  MrcalProblem problem(
-      options.model == LensModel::kOpenCv8 ? MRCAL_LENSMODEL_OPENCV8 : MRCAL_LENSMODEL_OPENCV5,
-      width_px, height_px, corners_target, views, std::move(shape));
-  if (2 * problem.NumObservations() <= problem.NumState()) {
-    throw std::invalid_argument("intrinsics: " + std::to_string(problem.NumObservations()) +
-                                " corners give " + std::to_string(2 * problem.NumObservations()) +
-                                " measurements for " + std::to_string(problem.NumState()) +
-                                " unknowns (intrinsics and 6 per view): more corners are needed");
-  }
+  MrcalProblem problem(ParametricLensModel(options.model), width_px, height_px, corners_target,
+                       views, ShapeModel(target, options));
+  CheckOverdetermined(problem, "");
   const double f_px = SeedFocalPx(corners_target, width_px, height_px, views);
   problem.intrinsics.assign(static_cast<size_t>(problem.NumIntrinsics()), 0.0);
   problem.intrinsics[0] = problem.intrinsics[1] = f_px;
@@ -193,27 +247,31 @@ IntrinsicsResult SolveIntrinsics(const core::Target& target, int width_px, int h
   problem.intrinsics[3] = (height_px - 1) / 2.0;
   problem.poses = SeedPoses(corners_target, f_px, width_px, height_px, views);
   problem.UpdatePoints();
+  SolveSeeded(problem, options, /*core_free=*/true);
 
-  if (options.staged) {
-    problem.Optimize(/*core=*/false, /*distortion=*/false);
-    problem.Optimize(true, false);
+  IntrinsicsResult result;
+  if (options.model != LensModel::kSplined) {
+    result = problem.Result();
+  } else {
+    const core::CameraModel parametric = problem.Result().camera;
+    const core::SplinedConfig config = ChooseSplinedConfig(options, parametric);
+    const core::CameraModel seed = SplinedApproximation(parametric, config);
+    MrcalProblem splined(core::MrcalLensModel(seed), width_px, height_px, corners_target, views,
+                         ShapeModel(target, options));
+    CheckOverdetermined(splined, " (or fewer spline knots: " + std::to_string(config.nx) + " x " +
+                                     std::to_string(config.ny) + " now)");
+    const Eigen::VectorXd params = seed.Params();
+    splined.intrinsics.assign(params.data(), params.data() + params.size());
+    splined.poses = problem.poses;
+    splined.shape_params = problem.shape_params;
+    splined.UpdatePoints();
+    // The core stays the opencv8 fit's: it is (nearly) redundant with the spline, which
+    // can shift and scale u as well, so solving both leaves J^T J (nearly) singular; mrcal
+    // locks it for its splined models likewise.
+    SolveSeeded(splined, options, /*core_free=*/false);
+    result = splined.Result(/*core_free=*/false);
+    result.parametric_camera = parametric;
   }
-  // Everything free; the target's shape parameters (if any) in turn with the rest until
-  // their step is below a micrometre (2-3 steps: the residuals are nearly linear in them).
-  const auto optimize_all = [&problem] {
-    problem.Optimize(true, true);
-    for (int step = 0; step < kMaxShapeSteps; ++step) {
-      if (problem.EstimateShapeStep() < 1e-6) break;
-      problem.Optimize(true, true);
-    }
-  };
-  optimize_all();
-  for (int iteration = 0; iteration < kMaxOutlierIterations; ++iteration) {
-    if (problem.MarkOutliers(options.outlier_sigmas) == 0) break;
-    optimize_all();
-  }
-
-  IntrinsicsResult result = problem.Result();
   result.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

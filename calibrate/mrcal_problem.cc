@@ -1,6 +1,7 @@
 #include "calibrate/mrcal_problem.h"
 
 #include <Eigen/Cholesky>
+#include <cassert>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,6 +13,9 @@
 #include <Eigen/Geometry>
 
 #include "core/cameramodel_io.h"
+
+// After mrcal: mrcal.h declares cholmod_sparse_struct itself, without the header.
+#include <cholmod.h>
 
 namespace hw::calibrate {
 
@@ -56,11 +60,10 @@ Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_
   return {x_out[0], x_out[1], x_out[2]};
 }
 
-MrcalProblem::MrcalProblem(mrcal_lensmodel_type_t type, int width_px, int height_px,
+MrcalProblem::MrcalProblem(const mrcal_lensmodel_t& lensmodel, int width_px, int height_px,
                            const std::vector<Eigen::Vector3d>& corners_target,
                            const std::vector<ViewObservation>& views, TargetShapeModel shape)
-    : imagersize_{width_px, height_px}, shape_(std::move(shape)), corners_(corners_target) {
-  lensmodel_.type = type;
+    : lensmodel_(lensmodel), imagersize_{width_px, height_px}, shape_(std::move(shape)), corners_(corners_target) {
   const int num_corners = static_cast<int>(corners_.size());
   for (size_t v = 0; v < views.size(); ++v) {
     view_begin_.push_back(static_cast<int>(observations_.size()));
@@ -119,8 +122,7 @@ void MrcalProblem::UpdatePoints() {
         const double ux = -sx * (c.x() - corners_[k].x()) / distance;
         const double uy = -sy * (c.y() - corners_[k].y()) / distance;
         Eigen::MatrixXd& basis = shape_basis_[v * num_corners + k];
-        const int first_knot = shape_.pixel_offset ? NumViews() : 0;
-        const int pixel_column = static_cast<int>(v);
+        const int first_knot = shape_.pixel_offset ? 1 : 0;
         if (shape_.pixel_offset && !intrinsics.empty() && std::isfinite(distance)) {
           // Metres on the target per pixel of the edge's shift along its image normal: the
           // image of a step n along the outward normal, its part across the edge's image t.
@@ -132,8 +134,8 @@ void MrcalProblem::UpdatePoints() {
             const double cross = std::abs(across.x() * along.y() - across.y() * along.x());
             return cross > 0 ? along.norm() / cross : 0.0;
           };
-          basis(0, pixel_column) = sx * metres_per_px(dq_dp.col(0), dq_dp.col(1));
-          basis(1, pixel_column) = sy * metres_per_px(dq_dp.col(1), dq_dp.col(0));
+          basis(0, 0) = sx * metres_per_px(dq_dp.col(0), dq_dp.col(1));
+          basis(1, 0) = sy * metres_per_px(dq_dp.col(1), dq_dp.col(0));
         }
         if (!shape_.knots_u.empty()) {
           const int n = static_cast<int>(shape_.knots_u.size());
@@ -187,7 +189,7 @@ double MrcalProblem::EstimateShapeStep() {
   // In metres: a pixel offset's step converted at a typical ~1 mm per pixel.
   double largest = 0;
   for (int j = 0; j < num_shape; ++j) {
-    largest = std::max(largest, (shape_.pixel_offset && j < NumViews() ? 1e-3 : 1.0) * std::abs(ds[j]));
+    largest = std::max(largest, (j == 0 && shape_.pixel_offset ? 1e-3 : 1.0) * std::abs(ds[j]));
   }
   return largest;
 }
@@ -254,32 +256,51 @@ Eigen::MatrixXd MrcalProblem::RegularizationJacobian() const {
   const int begin = mrcal_measurement_index_regularization(0, NumObservations(), 0, 0);
   const int count = mrcal_num_measurements_regularization(1, num_views, 0, num_points, num_points,
                                                           0, selections, &lensmodel_);
+  // mrcal's own sparse Jacobian, one callback: exact, and a splined model's hundreds of
+  // intrinsics would cost two callbacks each by finite differences.
+  const int num_nonzero =
+      _mrcal_num_j_nonzero(0, NumObservations(), 0, 0, 1, num_views, 0, num_points, num_points,
+                           nullptr, observations_.data(), selections, &lensmodel_);
+  cholmod_common common;
+  cholmod_start(&common);
+  cholmod_sparse* Jt = cholmod_allocate_sparse(static_cast<size_t>(num_states),
+                                               static_cast<size_t>(num_measurements),
+                                               static_cast<size_t>(num_nonzero), 1, 1, 0,
+                                               CHOLMOD_REAL, &common);
   std::vector<double> b_packed(static_cast<size_t>(num_states)),
       x(static_cast<size_t>(num_measurements));
-  // mrcal's measurements x at the intrinsics `at` (the poses as they are). Buffer sizes in
-  // bytes.
-  auto measure = [&](const std::vector<double>& at) {
-    if (!mrcal_optimizer_callback(b_packed.data(), static_cast<int>(sizeof(double)) * num_states,
-                                  x.data(), static_cast<int>(sizeof(double)) * num_measurements,
-                                  nullptr, at.data(), poses.data(), nullptr, points_.data(),
-                                  nullptr, 1, num_views, 0, num_points, num_points, nullptr,
-                                  observations_.data(), 0, NumObservations(), nullptr, &lensmodel_,
-                                  imagersize_.data(), selections, &constants, 0.0, 0, 0, false)) {
-      throw std::runtime_error("intrinsics: mrcal_optimizer_callback failed");
-    }
-    return Eigen::Map<const Eigen::VectorXd>(x.data() + begin, count).eval();
-  };
+  // Buffer sizes in bytes.
+  const bool ok =
+      Jt != nullptr &&
+      mrcal_optimizer_callback(b_packed.data(), static_cast<int>(sizeof(double)) * num_states,
+                               x.data(), static_cast<int>(sizeof(double)) * num_measurements,
+                               reinterpret_cast<struct cholmod_sparse_struct*>(Jt),
+                               intrinsics.data(), poses.data(), nullptr, points_.data(), nullptr,
+                               1, num_views, 0, num_points, num_points, nullptr,
+                               observations_.data(), 0, NumObservations(), nullptr, &lensmodel_,
+                               imagersize_.data(), selections, &constants, 0.0, 0, 0, false);
   const int n = NumIntrinsics();
-  Eigen::MatrixXd J(count, n);
-  for (int i = 0; i < n; ++i) {
-    // Central differences: mrcal's regularisation terms are smooth, low-order functions of
-    // the intrinsics (exact for a quadratic), and this is 2 callbacks per intrinsic.
-    const double step = 1e-6 * std::max(1.0, std::abs(intrinsics[static_cast<size_t>(i)]));
-    std::vector<double> plus = intrinsics, minus = intrinsics;
-    plus[static_cast<size_t>(i)] += step;
-    minus[static_cast<size_t>(i)] -= step;
-    J.col(i) = (measure(plus) - measure(minus)) / (2 * step);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(count, n);
+  if (ok) {
+    // Jt is the Jacobian of the packed (unitless) state b_packed = b / scale: column by
+    // column (one per measurement) d x / d b = d x / d b_packed / scale. The intrinsics lead
+    // the state; the regularisation depends on nothing else.
+    std::vector<double> scale(static_cast<size_t>(num_states), 1.0);
+    mrcal_unpack_solver_state_vector(scale.data(), 1, num_views, 0, num_points, num_points,
+                                     selections, &lensmodel_);
+    const auto* column_begin = static_cast<const int*>(Jt->p);
+    const auto* rows = static_cast<const int*>(Jt->i);
+    const auto* values = static_cast<const double*>(Jt->x);
+    for (int m = 0; m < count; ++m) {
+      for (int k = column_begin[begin + m]; k < column_begin[begin + m + 1]; ++k) {
+        assert(rows[k] < n);
+        if (rows[k] < n) J(m, rows[k]) = values[k] / scale[static_cast<size_t>(rows[k])];
+      }
+    }
   }
+  cholmod_free_sparse(&Jt, &common);
+  cholmod_finish(&common);
+  if (!ok) throw std::runtime_error("intrinsics: mrcal_optimizer_callback failed");
   return J;
 }
 
@@ -339,12 +360,18 @@ int MrcalProblem::MarkOutliers(double sigmas) {
   return marked;
 }
 
-IntrinsicsResult MrcalProblem::Result() const {
+IntrinsicsResult MrcalProblem::Result(bool core_free) const {
   IntrinsicsResult result;
   const int n_intrinsics = NumIntrinsics();
   result.camera.width = imagersize_[0];
   result.camera.height = imagersize_[1];
-  result.camera.type = core::CameraModelType::kOpenCV;
+  if (lensmodel_.type == MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC) {
+    const auto& config = lensmodel_.LENSMODEL_SPLINED_STEREOGRAPHIC__config;
+    result.camera.type = core::CameraModelType::kSplined;
+    result.camera.splined = {config.order, config.Nx, config.Ny, config.fov_x_deg};
+  } else {
+    result.camera.type = core::CameraModelType::kOpenCV;
+  }
   result.camera.fx = intrinsics[0];
   result.camera.fy = intrinsics[1];
   result.camera.cx = intrinsics[2];
@@ -393,26 +420,31 @@ IntrinsicsResult MrcalProblem::Result() const {
     result.residuals_px.push_back(std::move(view_residuals));
     result.outlier.push_back(std::move(view_outlier));
   }
+  // A fixed core (splined models) is no unknown: it has no variance and no column.
+  const int fixed = core_free ? 0 : 4;
   const int num_shape = NumShape();
-  const int num_unknowns = NumState() + num_shape;
-  const int dof = 2 * inliers - num_unknowns;
+  const int num_free = NumState() - fixed + num_shape;
+  const int dof = 2 * inliers - num_free;
   if (inliers == 0 || dof <= 0) {
     throw std::runtime_error("intrinsics: " + std::to_string(2 * inliers) +
-                             " inlier measurements for " + std::to_string(num_unknowns) +
+                             " inlier measurements for " + std::to_string(num_free) +
                              " unknowns: the problem is not overdetermined");
   }
   result.rms_px = std::sqrt(sum_squared / inliers);
   result.observation_sigma_px = std::sqrt(sum_squared / dof);
 
-  Eigen::MatrixXd JtJ = J.transpose() * J;
-  const Eigen::MatrixXd J_regularization = RegularizationJacobian();
-  JtJ.topLeftCorner(n_intrinsics, n_intrinsics) += J_regularization.transpose() * J_regularization;
+  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(num_free, num_free);
+  JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.rightCols(num_free).transpose());
+  const Eigen::MatrixXd J_regularization = RegularizationJacobian().rightCols(n_intrinsics - fixed);
+  JtJ.topLeftCorner(n_intrinsics - fixed, n_intrinsics - fixed).selfadjointView<Eigen::Lower>()
+      .rankUpdate(J_regularization.transpose());
   if (const Eigen::RowVectorXd prior = ShapePrior(); prior.size() > 0) {
     // The gauge direction (module comment): pinned, it adds no uncertainty to the rest.
     const double weight = 1e6 * JtJ.diagonal().tail(num_shape).mean();
-    JtJ.bottomRightCorner(num_shape, num_shape) += weight * prior.transpose() * prior;
+    JtJ.bottomRightCorner(num_shape, num_shape).selfadjointView<Eigen::Lower>().rankUpdate(
+        prior.transpose(), weight);
   }
-  const Eigen::LLT<Eigen::MatrixXd> llt(JtJ);
+  const Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(JtJ);
   if (llt.info() != Eigen::Success) {
     throw std::runtime_error(
         "intrinsics: J^T J is singular at the optimum: the views do not "
@@ -420,14 +452,17 @@ IntrinsicsResult MrcalProblem::Result() const {
   }
   // The shape parameters are marginalised: the state's block of the full inverse.
   const Eigen::MatrixXd covariance = result.observation_sigma_px * result.observation_sigma_px *
-                                     llt.solve(Eigen::MatrixXd::Identity(num_unknowns, num_unknowns));
-  result.state_covariance = covariance.topLeftCorner(NumState(), NumState());
+                                     llt.solve(Eigen::MatrixXd::Identity(num_free, num_free));
+  const int num_state_free = NumState() - fixed;
+  result.state_covariance = Eigen::MatrixXd::Zero(NumState(), NumState());
+  result.state_covariance.bottomRightCorner(num_state_free, num_state_free) =
+      covariance.topLeftCorner(num_state_free, num_state_free);
   result.edge_shift_knots_u = shape_.knots_u;
   for (int j = 0; j < num_shape; ++j) {
-    const double sigma = std::sqrt(covariance(NumState() + j, NumState() + j));
-    if (shape_.pixel_offset && j < NumViews()) {
-      result.view_edge_shift_px.push_back(shape_params[j]);
-      result.view_edge_shift_sigma_px.push_back(sigma);
+    const double sigma = std::sqrt(covariance(num_state_free + j, num_state_free + j));
+    if (j == 0 && shape_.pixel_offset) {
+      result.edge_shift_px = shape_params[j];
+      result.edge_shift_sigma_px = sigma;
     } else {
       result.edge_shift_m.push_back(shape_params[j]);
       result.edge_shift_sigma_m.push_back(sigma);

@@ -43,25 +43,29 @@ Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_
 // camera centre, d its distance): exactly the target plane moved α along its normal, which
 // the poses absorb. That direction is fixed by a stiff prior (F's least-squares line
 // through the knots has zero slope), so the covariance stays finite.
-// Besides F (metres on the target: physical), a shift of every edge of a view in the IMAGE,
-// pixels along the edge's image normal, one per view (pixel_offset): what a detector's edge
-// model, blur and gamma do to squares, and blur differs between views (defocus with the
-// distance, motion, a bolometer's lag); in target metres it grows with distance and
-// obliquity. (An outward shift grows the squares about their centres: no pose does that.)
-// Parameters, in this order: [the pixel offset of every view,] F at the knots.
+// Besides F (metres on the target: physical), a shift of every edge in the IMAGE, pixels
+// along the edge's image normal (pixel_offset): what a detector's edge model, blur and gamma
+// do to squares; in target metres it grows with distance and obliquity. (An outward shift
+// grows the squares about their centres: no pose does that.) One for all views: one per
+// view was tried and fitted the fixtures' sessions worse (the focal length's error against
+// truth grew from 2.6 to 4.1 sigma on an aprilgrid session: 16 more unknowns that trade
+// with the poses' distances).
+// Parameters, in this order: [the pixel offset,] F at the knots.
 struct TargetShapeModel {
   bool pixel_offset = false;
   std::vector<double> knots_u;  // increasing; may be empty
-  int NumParams(int num_views) const { return (pixel_offset ? num_views : 0) + static_cast<int>(knots_u.size()); }
+  int NumParams() const { return (pixel_offset ? 1 : 0) + static_cast<int>(knots_u.size()); }
   // The weights of F's knot values at u (hat functions; clamped outside the knots).
   Eigen::VectorXd Basis(double u) const;
 };
 
 class MrcalProblem {
  public:
+  // `lensmodel`: LENSMODEL_OPENCV5, LENSMODEL_OPENCV8 or a configured
+  // LENSMODEL_SPLINED_STEREOGRAPHIC (core::MrcalLensModel).
   // corners_target: core::TargetCorners (every 4 consecutive ids one square when `shape`
   // has a parameter).
-  MrcalProblem(mrcal_lensmodel_type_t type, int width_px, int height_px,
+  MrcalProblem(const mrcal_lensmodel_t& lensmodel, int width_px, int height_px,
                const std::vector<Eigen::Vector3d>& corners_target,
                const std::vector<ViewObservation>& views, TargetShapeModel shape = {});
 
@@ -69,7 +73,7 @@ class MrcalProblem {
   int NumState() const;  // intrinsics + 6 per view (the shape parameters not included)
   int NumObservations() const { return static_cast<int>(observations_.size()); }
   int NumViews() const { return static_cast<int>(view_begin_.size()) - 1; }
-  int NumShape() const { return shape_.NumParams(NumViews()); }
+  int NumShape() const { return shape_.NumParams(); }
 
   // One Gauss-Newton step of the shape parameters with the intrinsics and poses
   // re-adjusted (the step minimises the linearised residuals over all of them; the state's
@@ -83,8 +87,8 @@ class MrcalProblem {
   void UpdatePoints();
 
   // mrcal_optimize from the current intrinsics and poses, all poses free, the core and the
-  // distortion free as asked, no regularisation, no mrcal outlier rejection; the known
-  // outliers are left out. Throws std::runtime_error when mrcal fails.
+  // distortion free as asked, mrcal's regularisation on, no mrcal outlier rejection; the
+  // known outliers are left out. Throws std::runtime_error when mrcal fails.
   void Optimize(bool optimize_core, bool optimize_distortion);
 
   // Marks as outliers the inlier corners whose residual norm exceeds `sigmas` times the RMS
@@ -92,10 +96,12 @@ class MrcalProblem {
   int MarkOutliers(double sigmas);
 
   // The result at the current state, with its covariance (throws std::runtime_error when
-  // J^T J is singular, e.g. more unknowns than inlier measurements).
-  IntrinsicsResult Result() const;
+  // J^T J is singular, e.g. more unknowns than inlier measurements). core_free = false: the
+  // core (fx fy cx cy) was held fixed (splined models), so it has zero covariance and does
+  // not count as an unknown.
+  IntrinsicsResult Result(bool core_free = true) const;
 
-  std::vector<double> intrinsics;   // mrcal order: fx fy cx cy k...
+  std::vector<double> intrinsics;   // mrcal order: fx fy cx cy k... (or spline controls)
   std::vector<mrcal_pose_t> poses;  // rt camera_from_target per view
   Eigen::VectorXd shape_params;     // the TargetShapeModel parameters: [pixels,] metres
 

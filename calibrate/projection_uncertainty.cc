@@ -29,7 +29,10 @@ std::vector<double> ProjectionUncertaintyMap(const IntrinsicsResult& result, int
   const int n_state = n_intrinsics + 6 * n_views;
   if (!mrcal_lensmodel_from_name(&lensmodel, result.mrcal_lensmodel.c_str()) ||
       mrcal_lensmodel_num_params(&lensmodel) != n_intrinsics || n_views == 0 ||
-      result.state_covariance.rows() != n_state || result.state_covariance.cols() != n_state) {
+      result.state_covariance.rows() != n_state || result.state_covariance.cols() != n_state ||
+      !result.camera.Check().empty() || result.camera.NumParams() != n_intrinsics ||
+      result.camera.Params() !=
+          Eigen::Map<const Eigen::VectorXd>(result.mrcal_intrinsics.data(), n_intrinsics)) {
     throw std::invalid_argument(
         "projection uncertainty: the result has no consistent "
         "lens model, intrinsics, poses and state_covariance");
@@ -50,14 +53,13 @@ std::vector<double> ProjectionUncertaintyMap(const IntrinsicsResult& result, int
   Eigen::MatrixXd G(2, n_state);
   for (int row = 0; row < grid_rows; ++row) {
     for (int col = 0; col < grid_cols; ++col) {
-      const mrcal_point2_t q{
-          {grid_cols > 1 ? col * (width - 1.0) / (grid_cols - 1) : (width - 1) / 2.0,
-           grid_rows > 1 ? row * (height - 1.0) / (grid_rows - 1) : (height - 1) / 2.0}};
-      mrcal_point3_t v{};
-      const Eigen::Vector3d ray =
-          mrcal_unproject(&v, &q, 1, &lensmodel, result.mrcal_intrinsics.data())
-              ? Eigen::Vector3d(v.x, v.y, v.z)
-              : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+      const Eigen::Vector2d q(
+          grid_cols > 1 ? col * (width - 1.0) / (grid_cols - 1) : (width - 1) / 2.0,
+          grid_rows > 1 ? row * (height - 1.0) / (grid_rows - 1) : (height - 1) / 2.0);
+      // The camera is mrcal's model (same intrinsics); its Newton unprojection also converges
+      // where mrcal_unproject's solver gives up, e.g. a splined model's extrapolated edge.
+      const Eigen::Vector3d ray = result.camera.Unproject(q).value_or(
+          Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
       if (!ray.allFinite() || !(ray.norm() > 0)) {
         map.push_back(std::numeric_limits<double>::quiet_NaN());
         continue;

@@ -32,10 +32,13 @@ inline core::CameraModel SyntheticCamera() {
 }
 
 // `count` target poses seen by `camera` with every corner inside the image: 0.35-0.6 m away,
-// tilted 10-40 degrees about x and y (fronto_parallel: not tilted), rolled up to 20 degrees.
+// tilted 10-40 degrees about x and y (fronto_parallel: not tilted), rolled up to 20 degrees,
+// the target's centre off the optical axis by up to lateral / 2 times its distance in x and
+// y (0.4: near the centre; 2: out to 45 degrees, the edges of a wide lens).
 // Gives up after a million draws (a target too large for the image): fewer poses.
 inline std::vector<core::Rigid3d> RandomTargetPoses(const core::CameraModel& camera, const core::Target& target,
-                                                    int count, bool fronto_parallel, unsigned seed) {
+                                                    int count, bool fronto_parallel, unsigned seed,
+                                                    double lateral = 0.4) {
   const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : corners) centre += p / static_cast<double>(corners.size());
@@ -49,7 +52,7 @@ inline std::vector<core::Rigid3d> RandomTargetPoses(const core::CameraModel& cam
                                       Eigen::AngleAxisd(tilt_y, Eigen::Vector3d::UnitY()) *
                                       Eigen::AngleAxisd(tilt_x, Eigen::Vector3d::UnitX()));
     const double z = 0.35 + 0.25 * unit(rng);
-    const Eigen::Vector3d position(z * (unit(rng) - 0.5) * 0.4, z * (unit(rng) - 0.5) * 0.4, z);
+    const Eigen::Vector3d position(z * (unit(rng) - 0.5) * lateral, z * (unit(rng) - 0.5) * lateral, z);
     const core::Rigid3d camera_from_target(rotation, position - rotation * centre);
     bool inside = true;
     for (const Eigen::Vector3d& p : corners) {

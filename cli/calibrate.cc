@@ -1,10 +1,12 @@
 #include "cli/calibrate.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <tuple>
 
 #include "calibrate/diagnostics.h"
 #include "calibrate/image_source.h"
@@ -34,7 +36,17 @@ core::Stream StreamOf(const std::string& camera) {
   return camera == "thermal" ? core::Stream::kThermal : camera == "rgb" ? core::Stream::kRgb : core::Stream::kDepth;
 }
 
-std::string ModelName(calibrate::LensModel m) { return m == calibrate::LensModel::kOpenCv5 ? "opencv5" : "opencv8"; }
+std::string ModelName(calibrate::LensModel m) {
+  switch (m) {
+    case calibrate::LensModel::kOpenCv5: return "opencv5";
+    case calibrate::LensModel::kOpenCv8: return "opencv8";
+    case calibrate::LensModel::kSplined: return "splined";
+  }
+  return "unknown";
+}
+
+// Cells of the coverage grid per side sampled for the model difference: 5 × 5 points each.
+constexpr int kDifferencePointsPerCell = 5;
 
 calibrate::Detection Detect(const cv::Mat& image, const core::Target& target, const std::string& name) {
   switch (target.type) {
@@ -68,6 +80,14 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
   core::JsonObject camera;
   camera.Int("width", c.width).Int("height", c.height).String("model", core::MrcalLensModelName(c));
   camera.Number("fx", c.fx).Number("fy", c.fy).Number("cx", c.cx).Number("cy", c.cy).Add("distortion", ArrayJson(c.distortion));
+  if (c.type == core::CameraModelType::kSplined) {
+    camera.Add("splined", core::JsonObject()
+                              .Int("order", c.splined.order)
+                              .Int("nx", c.splined.nx)
+                              .Int("ny", c.splined.ny)
+                              .Int("fov_x_deg", c.splined.fov_x_deg)
+                              .str());
+  }
   core::JsonObject mrcal;
   mrcal.String("lensmodel", s.mrcal_lensmodel).Add("intrinsics", ArrayJson(s.mrcal_intrinsics)).Add("intrinsics_sigma", ArrayJson(sigmas));
   std::vector<std::string> views;
@@ -80,9 +100,6 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
     if (solved != r.solved_views.end()) {
       const size_t k = static_cast<size_t>(solved - r.solved_views.begin());
       v.Number("rms_px", s.view_rms_px[k]);
-      if (k < s.view_edge_shift_px.size()) {
-        v.Number("edge_shift_px", s.view_edge_shift_px[k]).Number("edge_shift_sigma_px", s.view_edge_shift_sigma_px[k]);
-      }
       const core::Rigid3d& pose = s.camera_from_target[k];
       v.Add("camera_from_target", core::JsonObject()
                                       .Add("q_xyzw", ArrayJson({pose.rotation.x(), pose.rotation.y(), pose.rotation.z(), pose.rotation.w()}))
@@ -114,19 +131,34 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
   root.Number("observation_sigma_px", s.observation_sigma_px)
       .String("observation_sigma_is", "per coordinate, from the inlier residuals and the degrees of freedom");
   root.Int("outliers", s.outliers);
-  if (!s.edge_shift_m.empty()) {
+  if (std::isfinite(s.edge_shift_px)) {
     root.Add("target_shape",
              core::JsonObject()
                  .String("what", "outward shift of the squares' edges seen by the detector vs the target's, on the "
                                  "target as a function of the tangent of the viewing angle across the edge (> 0: the "
-                                 "camera faces that edge's side wall), plus per view a shift in the image (views[]."
-                                 "edge_shift_px); estimated with the camera, marginalised out")
+                                 "camera faces that edge's side wall), and a shift in the image; estimated with the "
+                                 "camera, marginalised out")
+                 .Number("edge_shift_px", s.edge_shift_px)
+                 .Number("edge_shift_sigma_px", s.edge_shift_sigma_px)
                  .Add("tan_view_angle", ArrayJson(s.edge_shift_knots_u))
                  .Add("edge_shift_m", ArrayJson(s.edge_shift_m))
                  .Add("edge_shift_sigma_m", ArrayJson(s.edge_shift_sigma_m))
                  .str());
   }
   root.Number("coverage", r.coverage).Add("coverage_cells", StringPrintf("[%d, %d]", kCoverageCols, kCoverageRows));
+  if (r.model_difference && s.parametric_camera) {
+    const calibrate::ModelDifference& d = *r.model_difference;
+    root.Add("model_difference", core::JsonObject()
+                                     .String("between", s.mrcal_lensmodel + " and " + core::MrcalLensModelName(*s.parametric_camera))
+                                     .String("is", "pixel difference over the covered cells, after the best-fitting rotation "
+                                                   "(mrcal-show-projection-diff's idea, at infinity): how far the parametric "
+                                                   "model is from the splined one where there is data")
+                                     .Number("rms_px", d.rms_px)
+                                     .Number("worst_px", d.worst_px)
+                                     .Int("points", d.points)
+                                     .Number("rotation_deg", d.rotation_rad * 180 / M_PI)
+                                     .str());
+  }
   root.Add("uncertainty", core::JsonObject()
                               .Number("range_m", r.profile.uncertainty_range_m)
                               .Add("grid", StringPrintf("[%d, %d]", r.grid_cols, r.grid_rows))
@@ -145,6 +177,20 @@ std::string IntrinsicsCommandOptions::Check() const {
   if (out_folder.empty()) return "--out: must be given";
   if (camera != "thermal" && camera != "rgb" && camera != "depth") {
     return "--camera: must be thermal, rgb or depth, got '" + camera + "'";
+  }
+  // The spline's options by their command-line names (IntrinsicsOptions::Check names fields).
+  if (solver.spline_order != 2 && solver.spline_order != 3) {
+    return "--spline-order: must be 2 or 3, got " + std::to_string(solver.spline_order);
+  }
+  const std::array<std::tuple<const char*, int, int>, 3> counts{{{"--spline-nx", solver.spline_nx, 64},
+                                                                 {"--spline-ny", solver.spline_ny, 64},
+                                                                 {"--spline-fov-deg", solver.spline_fov_x_deg, 179}}};
+  for (const auto& [name, value, max] : counts) {
+    const int min = std::string(name) == "--spline-fov-deg" ? 1 : 4;
+    if (value != 0 && (value < min || value > max)) {
+      return std::string(name) + ": must be in [" + std::to_string(min) + ", " + std::to_string(max) +
+             "] (or 0: chosen from the image), got " + std::to_string(value);
+    }
   }
   if (const std::string p = solver.Check(); !p.empty()) return p;
   return "";
@@ -228,6 +274,23 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
     }
   }
   m.coverage = r.coverage;
+  if (r.solve.parametric_camera) {
+    // Points spread over every covered cell (none elsewhere: there the spline is regularised
+    // towards its seed, not fitted).
+    std::vector<Eigen::Vector2d> pixels;
+    for (int cy = 0; cy < kCoverageRows; ++cy) {
+      for (int cx = 0; cx < kCoverageCols; ++cx) {
+        if (!covered[static_cast<size_t>(cy * kCoverageCols + cx)]) continue;
+        for (int j = 0; j < kDifferencePointsPerCell; ++j) {
+          for (int i = 0; i < kDifferencePointsPerCell; ++i) {
+            pixels.emplace_back((cx + (i + 0.5) / kDifferencePointsPerCell) * width / kCoverageCols - 0.5,
+                                (cy + (j + 0.5) / kDifferencePointsPerCell) * height / kCoverageRows - 0.5);
+          }
+        }
+      }
+    }
+    r.model_difference = calibrate::ProjectionDifference(r.solve.camera, *r.solve.parametric_camera, pixels);
+  }
   r.checks = calibrate::EvaluateQa(r.profile, m);
   r.pass = calibrate::AllPass(r.checks);
 
@@ -258,10 +321,8 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
                                                            StringPrintf("projection uncertainty (1 sigma) at %g m",
                                                                         r.profile.uncertainty_range_m)));
   r.written = {"diagnostics/"};
-  if (r.solve.mrcal_lensmodel.rfind("LENSMODEL_OPENCV", 0) == 0) {
-    core::WriteMrcalCameraModel(o.out_folder / "camera.cameramodel", r.solve.camera);
-    r.written.push_back("camera.cameramodel");
-  }
+  core::WriteMrcalCameraModel(o.out_folder / "camera.cameramodel", r.solve.camera);
+  r.written.push_back("camera.cameramodel");
   if (rig) {
     core::Rig merged = *rig;
     if (o.camera == "thermal") {
@@ -303,11 +364,9 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
                         std::sqrt(r.solve.intrinsics_covariance(3, 3)));
   }
   out += "\n";
-  if (!r.solve.view_edge_shift_px.empty()) {
-    std::vector<double> px = r.solve.view_edge_shift_px;
-    std::sort(px.begin(), px.end());
-    out += StringPrintf("Target     edge shift in the image %+.2f px (median of the views, %+.2f to %+.2f)\n",
-                        px[px.size() / 2], px.front(), px.back());
+  if (std::isfinite(r.solve.edge_shift_px)) {
+    out += StringPrintf("Target     edge shift in the image %+.3f ± %.3f px (outwards)\n", r.solve.edge_shift_px,
+                        r.solve.edge_shift_sigma_px);
   }
   if (!r.solve.edge_shift_m.empty()) {
     out += "           edge shift on the target (mm, 1 sigma)";
@@ -320,6 +379,13 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
   }
   out += StringPrintf("Residuals  RMS %.3f px (corner norms), worst %.3f px, %d outliers; solved in %.2f s\n", r.solve.rms_px,
                       r.solve.worst_px, r.solve.outliers, r.solve.solve_seconds);
+  if (r.model_difference) {
+    out += StringPrintf("Model diff splined vs its opencv8 seed over the covered cells: RMS %.3f px, worst %.3f px%s\n",
+                        r.model_difference->rms_px, r.model_difference->worst_px,
+                        r.model_difference->worst_px > 0.5
+                            ? " (large: opencv8 misfits the lens, or too few views pin the spline down)"
+                            : " (opencv8 would do)");
+  }
   out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
   for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
   std::string files;
@@ -341,7 +407,13 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--target", o.target_path, "target.yaml; default: <images>/target.yaml");
   intrinsics->add_option("--camera", o.camera, "thermal | rgb | depth")->capture_default_str();
   std::string model = "opencv5";
-  intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8")->capture_default_str();
+  intrinsics->add_option("--model", model, "lens model: opencv5 | opencv8 | splined (mrcal's splined stereographic)")
+      ->capture_default_str();
+  intrinsics->add_option("--spline-order", o.solver.spline_order, "splined: 2 or 3")->capture_default_str();
+  intrinsics->add_option("--spline-nx", o.solver.spline_nx, "splined: knots across, [4, 64]; default ~1 per 40 px in [8, 30]");
+  intrinsics->add_option("--spline-ny", o.solver.spline_ny, "splined: knots down, [4, 64]; default: to cover the image");
+  intrinsics->add_option("--spline-fov-deg", o.solver.spline_fov_x_deg,
+                         "splined: horizontal field of view the spline spans, [1, 179] degrees; default: the lens's + 5 %");
   intrinsics->add_option("--profile", o.profile_path, "qa.yaml: the QA thresholds (README)");
   bool no_target_shape = false;
   intrinsics->add_flag("--no-target-shape", no_target_shape,
@@ -355,9 +427,10 @@ int RunCalibrate(int argc, char** argv) {
       o.solver.model = calibrate::LensModel::kOpenCv5;
     } else if (model == "opencv8") {
       o.solver.model = calibrate::LensModel::kOpenCv8;
+    } else if (model == "splined") {
+      o.solver.model = calibrate::LensModel::kSplined;
     } else {
-      throw UsageError("--model: must be opencv5 or opencv8 (mrcal's splined model is not supported yet), got '" +
-                       model + "'");
+      throw UsageError("--model: must be opencv5, opencv8 or splined, got '" + model + "'");
     }
     o.solver.estimate_target_shape = !no_target_shape;
     ThrowIfInvalid(o.Check());

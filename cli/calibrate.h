@@ -4,6 +4,7 @@
 // detect, solve (mrcal), check, give PASS/FAIL verdicts, write the camera and diagnostics.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ struct IntrinsicsCommandResult {
   int grid_cols = 0, grid_rows = 0;              // of the uncertainty map
   std::vector<double> uncertainty_px;            // row-major
   double coverage = 0;                           // fraction of 8 × 6 cells observed
+  // --model splined: the splined camera against the opencv8 fit that seeded it over the
+  // covered cells (calibrate::ProjectionDifference, pixels unprojected by the spline): how
+  // far the parametric model was from the data's lens. nullopt for the parametric models.
+  std::optional<calibrate::ModelDifference> model_difference;
   calibrate::QaProfile profile;
   std::vector<calibrate::QaCheck> checks;
   bool pass = false;
@@ -42,7 +47,8 @@ struct IntrinsicsCommandResult {
   double seconds = 0;
 };
 
-// Runs the calibration and writes into out_folder: intrinsics.json, camera.cameramodel,
+// Runs the calibration and writes into out_folder: intrinsics.json, camera.cameramodel
+// (any model: opencv5/8 or mrcal's splined LENSMODEL_SPLINED_STEREOGRAPHIC),
 // rig.yaml (when a rig to merge into is known), diagnostics/ (detections/*.png,
 // residuals.png, histogram.png, uncertainty.png). Everything is read and solved before the
 // folder is touched. Throws core::InputError (unreadable image or target, images of mixed

@@ -32,3 +32,14 @@ pkg_check_modules(apriltag REQUIRED IMPORTED_TARGET apriltag>=3.3)
 pkg_check_modules(libusb REQUIRED IMPORTED_TARGET libusb-1.0>=1.0.26)
 pkg_check_modules(cairo REQUIRED IMPORTED_TARGET cairo>=1.16 cairo-pdf)
 pkg_check_modules(pangocairo REQUIRED IMPORTED_TARGET pangocairo>=1.50)
+# CHOLMOD (SuiteSparse, a dependency of mrcal): calibrate/ reads the sparse Jacobian that
+# mrcal_optimizer_callback returns as a cholmod_sparse. Debian ships no CMake or pkg-config
+# file for it.
+find_path(CHOLMOD_INCLUDE_DIR NAMES cholmod.h PATH_SUFFIXES suitesparse REQUIRED)
+find_library(CHOLMOD_LIBRARY NAMES cholmod REQUIRED)
+if(NOT TARGET SuiteSparse::CHOLMOD)
+  add_library(SuiteSparse::CHOLMOD UNKNOWN IMPORTED)
+  set_target_properties(SuiteSparse::CHOLMOD PROPERTIES
+    IMPORTED_LOCATION "${CHOLMOD_LIBRARY}"
+    INTERFACE_INCLUDE_DIRECTORIES "${CHOLMOD_INCLUDE_DIR}")
+endif()

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <system_error>
@@ -14,6 +15,8 @@
 #include <vector>
 
 #include <Eigen/Dense>
+
+#include "core/camera_mrcal.h"
 
 namespace hw::core {
 namespace {
@@ -53,6 +56,8 @@ std::string CameraModelTypeName(CameraModelType type) {
       return "pinhole";
     case CameraModelType::kOpenCV:
       return "opencv";
+    case CameraModelType::kSplined:
+      return "splined";
   }
   assert(false && "unknown CameraModelType");
   return "unknown";
@@ -61,6 +66,7 @@ std::string CameraModelTypeName(CameraModelType type) {
 std::optional<CameraModelType> ParseCameraModelType(const std::string& name) {
   if (name == "pinhole") return CameraModelType::kPinhole;
   if (name == "opencv") return CameraModelType::kOpenCV;
+  if (name == "splined") return CameraModelType::kSplined;
   return std::nullopt;
 }
 
@@ -69,6 +75,27 @@ std::string UndistortOptions::Check() const {
   // !(x > 0) also rejects NaN.
   if (!(tolerance_px > 0) || !std::isfinite(tolerance_px)) {
     return "tolerance_px: must be > 0 and finite, got " + FormatNumber(tolerance_px);
+  }
+  return "";
+}
+
+std::string SplinedConfig::Check() const {
+  if (order != 2 && order != 3) {
+    return "splined.order: must be 2 or 3, got " + std::to_string(order);
+  }
+  // At least 4 knots: a cubic segment needs 4 control points. At most 64: 8192 parameters,
+  // far beyond what a calibration constrains (mrcal's examples use 30 x 18 or fewer).
+  const std::array<std::pair<const char*, int>, 2> counts{{{"nx", nx}, {"ny", ny}}};
+  for (const auto& [name, value] : counts) {
+    if (value < 4 || value > 64) {
+      return std::string("splined.") + name + ": must be in [4, 64], got " +
+             std::to_string(value);
+    }
+  }
+  // The stereographic projection is finite up to 180 degrees off axis; a spline spanning
+  // 180 degrees or more across would reach it.
+  if (fov_x_deg < 1 || fov_x_deg > 179) {
+    return "splined.fov_x_deg: must be in [1, 179] degrees, got " + std::to_string(fov_x_deg);
   }
   return "";
 }
@@ -153,6 +180,15 @@ std::string CameraModel::Check() const {
         return "distortion: opencv needs 4, 5 or 8 coefficients, got " + std::to_string(n);
       }
       break;
+    case CameraModelType::kSplined:
+      if (std::string problem = splined.Check(); !problem.empty()) return problem;
+      if (n != static_cast<size_t>(splined.NumControls())) {
+        return "distortion: splined with nx = " + std::to_string(splined.nx) +
+               ", ny = " + std::to_string(splined.ny) + " needs 2 nx ny = " +
+               std::to_string(splined.NumControls()) + " control values, got " +
+               std::to_string(n);
+      }
+      break;
   }
   for (size_t i = 0; i < n; ++i) {
     const std::string field = "distortion[" + std::to_string(i) + "]";
@@ -189,6 +225,9 @@ void CameraModel::SetParams(const Eigen::VectorXd& params) {
 
 Eigen::Vector2d CameraModel::Distort(const Eigen::Vector2d& xy_undistorted, Eigen::Matrix2d* J_xy,
                                      Eigen::Matrix<double, 2, Eigen::Dynamic>* J_dist) const {
+  if (type == CameraModelType::kSplined) {
+    return SplinedDistort(*this, xy_undistorted, J_xy, J_dist);
+  }
   const auto num_dist = static_cast<Eigen::Index>(distortion.size());
   if (J_dist != nullptr) J_dist->setZero(2, num_dist);
   if (type == CameraModelType::kPinhole || distortion.empty()) {
@@ -393,6 +432,14 @@ double CertifiedRadius(const Coefficients& c) {
 // True when xy_undistorted is certified to be the physical preimage of its distorted point
 // (IsUnfolded along its direction); false near or beyond a fold.
 bool IsOnPhysicalBranch(const CameraModel& model, const Eigen::Vector2d& xy_undistorted) {
+  if (model.type == CameraModelType::kSplined) {
+    // No certificate for a spline: accept where the map keeps its orientation (it is the
+    // identity-like stereographic projection at the centre), which rules out a preimage
+    // past a fold.
+    Eigen::Matrix2d J;
+    model.Distort(xy_undistorted, &J);
+    return J.determinant() > 0;
+  }
   const Coefficients c = Unpack(model.distortion);
   // Fast path: the certified disc of a few recent lenses, per thread: 40-odd IsUnfolded
   // calls once per lens instead of one per Unproject. The disc is certified with tau_max >=
@@ -466,6 +513,14 @@ std::optional<Eigen::Vector2d> CameraModel::Undistort(const Eigen::Vector2d& xy_
   // iterations for any real lens inside its image.
   int iterations = 0;
   Eigen::Vector2d xy = xy_distorted;
+  if (type == CameraModelType::kSplined) {
+    // Start from the stereographic preimage, ignoring the spline: |u| = 2 tan(theta / 2),
+    // |xy| = tan(theta). Beyond 90 degrees off axis there is no normalised point.
+    const double u = xy_distorted.norm();
+    const double theta = 2 * std::atan(u / 2);
+    if (!(theta < std::numbers::pi / 2)) return std::nullopt;
+    if (u > 0) xy = xy_distorted * (std::tan(theta) / u);
+  }
   if (SolveDistort(*this, xy_distorted, options.tolerance_px, options.max_iterations, xy,
                    iterations) &&
       IsOnPhysicalBranch(*this, xy)) {
@@ -563,7 +618,8 @@ Eigen::Matrix3d CameraModel::K() const {
 
 bool operator==(const CameraModel& a, const CameraModel& b) {
   return a.width == b.width && a.height == b.height && a.type == b.type && a.fx == b.fx &&
-         a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
+         a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion &&
+         (a.type != CameraModelType::kSplined || a.splined == b.splined);
 }
 
 }  // namespace hw::core

@@ -14,6 +14,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/camera_mrcal.h"
 #include "core/mrcal_c.h"
 #include "core/rig.h"
 #include "core/yaml_reader.h"
@@ -47,24 +48,10 @@ struct MrcalModelFree {
 using MrcalModelPtr = std::unique_ptr<mrcal_cameramodel_t, MrcalModelFree>;
 
 mrcal_lensmodel_type_t MrcalLensModelType(const CameraModel& camera) {
-  switch (camera.type) {
-    case CameraModelType::kPinhole:
-      return MRCAL_LENSMODEL_PINHOLE;
-    case CameraModelType::kOpenCV:
-      switch (camera.distortion.size()) {
-        case 4:
-          return MRCAL_LENSMODEL_OPENCV4;
-        case 5:
-          return MRCAL_LENSMODEL_OPENCV5;
-        case 8:
-          return MRCAL_LENSMODEL_OPENCV8;
-        default:
-          break;
-      }
-      break;
-  }
-  assert(false && "camera has no mrcal lens model; CameraModel::Check() should have said so");
-  return MRCAL_LENSMODEL_INVALID;
+  const mrcal_lensmodel_t lensmodel = MrcalLensModel(camera);
+  assert(lensmodel.type != MRCAL_LENSMODEL_INVALID &&
+         "camera has no mrcal lens model; CameraModel::Check() should have said so");
+  return lensmodel.type;
 }
 
 // The configured name of any mrcal lens model, for messages.
@@ -138,9 +125,10 @@ Eigen::Quaterniond QuaternionFromRodrigues(const Eigen::Vector3d& r) {
 
 std::string MrcalLensModelName(const CameraModel& camera) {
   assert(camera.Check().empty());
-  mrcal_lensmodel_t lensmodel{};
-  lensmodel.type = MrcalLensModelType(camera);
-  std::array<char, 64> name{};
+  const mrcal_lensmodel_t lensmodel = MrcalLensModel(camera);
+  assert(lensmodel.type != MRCAL_LENSMODEL_INVALID);
+  // "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=64_Ny=64_fov_x_deg=179" is 66 characters.
+  std::array<char, 128> name{};
   const bool ok = mrcal_lensmodel_name(name.data(), static_cast<int>(name.size()), &lensmodel);
   assert(ok);
   (void)ok;
@@ -175,6 +163,7 @@ std::string FormatMrcalCameraModel(const CameraModel& camera, const Rigid3d& cam
   const MrcalModelPtr check = ParseWithMrcal(text);
   assert(check != nullptr);
   assert(check->lensmodel.type == MrcalLensModelType(camera));
+  assert(LensModelName(check->lensmodel) == MrcalLensModelName(camera));
   assert(check->imagersize[0] == static_cast<unsigned>(camera.width));
   for (int i = 0; i < intrinsics.size(); ++i) assert(check->intrinsics[i] == intrinsics[i]);
   for (int i = 0; i < 6; ++i) assert(check->rt_cam_ref[i] == rt[i]);
@@ -220,10 +209,24 @@ MrcalCameraModel ParseMrcalCameraModel(const std::string& raw_text,
       camera.type = CameraModelType::kOpenCV;
       num_distortion = 8;
       break;
+    case MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC: {
+      const auto& config = model->lensmodel.LENSMODEL_SPLINED_STEREOGRAPHIC__config;
+      camera.type = CameraModelType::kSplined;
+      camera.splined = {config.order, config.Nx, config.Ny, config.fov_x_deg};
+      // Before the parameter count is trusted: the config's ranges (Nx = 0 would make no
+      // parameters at all).
+      if (const std::string problem = camera.splined.Check(); !problem.empty()) {
+        ThrowInputError(path, "invalid camera: " + problem + " (lensmodel " +
+                                  LensModelName(model->lensmodel) + ")");
+      }
+      num_distortion = camera.splined.NumControls();
+      break;
+    }
     default:
       ThrowInputError(path, "lensmodel: " + LensModelName(model->lensmodel) +
-                                " is not supported (heatwave reads LENSMODEL_PINHOLE and "
-                                "LENSMODEL_OPENCV4, 5 and 8)");
+                                " is not supported (heatwave reads LENSMODEL_PINHOLE, "
+                                "LENSMODEL_OPENCV4, 5 and 8 and "
+                                "LENSMODEL_SPLINED_STEREOGRAPHIC)");
   }
   // mrcal sized intrinsics[] for its model; ours has the same count.
   assert(mrcal_lensmodel_num_params(&model->lensmodel) == 4 + num_distortion);

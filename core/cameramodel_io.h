@@ -15,7 +15,9 @@ namespace hw::core {
 // `.cameramodel` text files, parsed by libmrcal itself.
 //
 // Lens models: pinhole <-> LENSMODEL_PINHOLE; opencv with 4, 5 or 8 coefficients <->
-// LENSMODEL_OPENCV4/5/8. mrcal's intrinsics are ours in the same order (fx fy cx cy k...),
+// LENSMODEL_OPENCV4/5/8; splined <-> LENSMODEL_SPLINED_STEREOGRAPHIC_order=O_Nx=X_Ny=Y_
+// fov_x_deg=F (SplinedConfig; beyond scan-format.md's pinhole and opencv). mrcal's
+// intrinsics are ours in the same order (fx fy cx cy k... or spline controls),
 // and mrcal, like OpenCV and heatwave, puts pixel (0, 0) at the centre of the top-left
 // pixel, so the numbers carry over unchanged. mrcal's extrinsics rt_cam_ref (Rodrigues
 // vector r in radians, then t in metres) map a point in the reference frame into the
@@ -26,7 +28,8 @@ struct MrcalCameraModel {
   Rigid3d camera_from_ref;  // mrcal's extrinsics; identity when the file has zero extrinsics
 };
 
-// mrcal's name of the lens model of `camera`, e.g. "LENSMODEL_OPENCV5" (from
+// mrcal's name of the lens model of `camera`, e.g. "LENSMODEL_OPENCV5" or
+// "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=14_fov_x_deg=60" (from
 // mrcal_lensmodel_name). Asserts camera.Check() is empty.
 std::string MrcalLensModelName(const CameraModel& camera);
 
@@ -50,7 +53,8 @@ void WriteMrcalCameraModel(const std::filesystem::path& path, const CameraModel&
 // ends are accepted, a NUL or control character is an error naming line and column; files
 // over 1 MiB are refused). Throws InputError, one line naming the path, when the file is
 // unreadable, malformed (libmrcal then also prints its own diagnostic to stderr), uses a
-// lens model other than the four above (the message names it), holds a camera outside
+// lens model other than the five above (the message names it; a splined configuration
+// outside SplinedConfig's ranges is named as "splined.nx: ..."), holds a camera outside
 // CameraModel::Check's ranges (camera.h: e.g. fx in [1, 1e6] px, imagersize at most 16384),
 // or extrinsics with a rotation vector longer than 4 pi rad or a translation over 10 m.
 MrcalCameraModel ReadMrcalCameraModel(const std::filesystem::path& path);

@@ -22,6 +22,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/mrcal_c.h"
+#include "core/splined_test_support.h"
 #include "tests/support.h"
 
 namespace hw::core {
@@ -310,7 +311,7 @@ TEST(CameraModelIoTest, RejectsOtherLensModelsByName) {
       " 'imagersize': [640, 480], 'extrinsics': [0, 0, 0, 0, 0, 0]}";
   EXPECT_EQ(ParseError(cahvor),
             "cam.cameramodel: lensmodel: LENSMODEL_CAHVOR is not supported (heatwave reads "
-            "LENSMODEL_PINHOLE and LENSMODEL_OPENCV4, 5 and 8)");
+            "LENSMODEL_PINHOLE, LENSMODEL_OPENCV4, 5 and 8 and LENSMODEL_SPLINED_STEREOGRAPHIC)");
   const std::string opencv12 =
       "{'lensmodel': 'LENSMODEL_OPENCV12', 'intrinsics': [500, 500, 320, 240, 0, 0, 0, 0, 0, 0,"
       " 0, 0, 0, 0, 0, 0], 'imagersize': [640, 480], 'extrinsics': [0, 0, 0, 0, 0, 0]}";
@@ -507,6 +508,44 @@ TEST(CameraModelIoTest, FuzzTruncationsAndMutations) {
   }
   EXPECT_GT(accepted, 10);
   EXPECT_LT(accepted, cases / 2);
+}
+
+TEST(CameraModelIoTest, RoundTripsASplinedCamera) {
+  const fs::path dir = hw::test::TestFolder();
+  CameraModel camera = test::SplinedTestCamera();
+  camera.distortion[3] = 1.0 / 3.0 * 1e-2;  // all 17 digits
+  EXPECT_EQ(MrcalLensModelName(camera),
+            "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=13_fov_x_deg=80");
+  const Rigid3d extrinsics(Eigen::Quaterniond(0.9, -0.1, 0.3, 1e-9).normalized(),
+                           Eigen::Vector3d(0.03, -0.25, 0.001));
+  WriteMrcalCameraModel(dir / "splined.cameramodel", camera, extrinsics);
+  const MrcalCameraModel back = ReadMrcalCameraModel(dir / "splined.cameramodel");
+  EXPECT_TRUE(back.camera == camera);  // type, config, every control bit for bit
+  EXPECT_EQ(back.camera.splined, camera.splined);
+  EXPECT_EQ(back.camera.Params(), camera.Params());
+}
+
+TEST(CameraModelIoTest, ReadsSplinedModelsAndRefusesBadConfigsByField) {
+  const auto text = [](const std::string& config, int num_controls) {
+    std::string intrinsics = "[500, 500, 320, 240";
+    for (int i = 0; i < num_controls; ++i) intrinsics += i % 3 == 0 ? ", 1e-3" : ", 0";
+    return "{'lensmodel': 'LENSMODEL_SPLINED_STEREOGRAPHIC_" + config + "', 'intrinsics': " +
+           intrinsics + "], 'imagersize': [640, 480], 'extrinsics': [0, 0, 0, 0, 0, 0]}";
+  };
+  const MrcalCameraModel model = ParseMrcalCameraModel(
+      text("order=2_Nx=5_Ny=4_fov_x_deg=90", 40), "cam.cameramodel");
+  EXPECT_EQ(model.camera.type, CameraModelType::kSplined);
+  EXPECT_EQ(model.camera.splined, (SplinedConfig{2, 5, 4, 90}));
+  EXPECT_EQ(model.camera.distortion.size(), 40u);
+  EXPECT_EQ(model.camera.distortion[3], 1e-3);
+  EXPECT_THAT(ParseError(text("order=3_Nx=3_Ny=4_fov_x_deg=90", 24)),
+              HasSubstr("invalid camera: splined.nx: must be in [4, 64], got 3"));
+  EXPECT_THAT(ParseError(text("order=3_Nx=5_Ny=100_fov_x_deg=90", 1000)),
+              HasSubstr("invalid camera: splined.ny: must be in [4, 64], got 100"));
+  EXPECT_THAT(ParseError(text("order=1_Nx=5_Ny=4_fov_x_deg=90", 40)),
+              HasSubstr("invalid camera: splined.order: must be 2 or 3, got 1"));
+  EXPECT_THAT(ParseError(text("order=3_Nx=5_Ny=4_fov_x_deg=200", 40)),
+              HasSubstr("invalid camera: splined.fov_x_deg: must be in [1, 179] degrees, got 200"));
 }
 
 }  // namespace

@@ -48,8 +48,21 @@ bool IsIdentity(const Rigid3d& transform) {
          transform.translation == Eigen::Vector3d::Zero();
 }
 
-const std::set<std::string> kCameraKeys = {"width", "height", "model", "fx",
-                                           "fy",    "cx",     "cy",    "distortion"};
+const std::set<std::string> kCameraKeys = {"width", "height", "model",      "fx",     "fy",
+                                           "cx",    "cy",     "distortion", "splined"};
+
+// The `splined: {order, nx, ny, fov_x_deg}` block of a splined camera (an extension of
+// scan-format.md, camera.h SplinedConfig); ranges checked with the camera.
+SplinedConfig ParseSplinedConfig(const YamlReader& reader, const YAML::Node& node,
+                                 const std::string& key) {
+  const Fields fields = reader.Mapping(node, key, {"order", "nx", "ny", "fov_x_deg"});
+  SplinedConfig config;
+  config.order = reader.Integer(fields.Required("order"), fields.Path("order"));
+  config.nx = reader.Integer(fields.Required("nx"), fields.Path("nx"));
+  config.ny = reader.Integer(fields.Required("ny"), fields.Path("ny"));
+  config.fov_x_deg = reader.Integer(fields.Required("fov_x_deg"), fields.Path("fov_x_deg"));
+  return config;
+}
 
 CameraModel ParseCamera(const YamlReader& reader, const YAML::Node& node, const std::string& key) {
   const Fields fields = reader.Mapping(node, key, kCameraKeys);
@@ -60,8 +73,15 @@ CameraModel ParseCamera(const YamlReader& reader, const YAML::Node& node, const 
   const std::string model_name = reader.String(model, fields.Path("model"));
   const std::optional<CameraModelType> type = ParseCameraModelType(model_name);
   if (!type)
-    reader.Fail(fields.Path("model"), "must be pinhole or opencv, got " + Describe(model), model);
+    reader.Fail(fields.Path("model"), "must be pinhole, opencv or splined, got " + Describe(model),
+                model);
   camera.type = *type;
+  if (camera.type == CameraModelType::kSplined) {
+    camera.splined = ParseSplinedConfig(reader, fields.Required("splined"), fields.Path("splined"));
+  } else if (fields.Has("splined")) {
+    reader.Fail(fields.Path("splined"), "only a splined camera has this block, model is " +
+                                            model_name, fields.NodeFor("splined"));
+  }
   camera.fx = reader.Number(fields.Required("fx"), fields.Path("fx"));
   camera.fy = reader.Number(fields.Required("fy"), fields.Path("fy"));
   camera.cx = reader.Number(fields.Required("cx"), fields.Path("cx"));
@@ -113,13 +133,21 @@ void AppendCamera(std::string& out, const std::string& name, const CameraModel& 
   out += "    width: " + std::to_string(camera.width) + "\n";
   out += "    height: " + std::to_string(camera.height) + "\n";
   out += "    model: " + CameraModelTypeName(camera.type) +
-         "   # pinhole | opencv (opencv = OpenCV's k1 k2 p1 p2 [k3 [k4 k5 k6]])\n";
+         "   # pinhole | opencv (OpenCV's k1 k2 p1 p2 [k3 [k4 k5 k6]]) | splined (mrcal's)\n";
+  if (camera.type == CameraModelType::kSplined) {
+    const SplinedConfig& c = camera.splined;
+    out += "    splined: { order: " + std::to_string(c.order) + ", nx: " + std::to_string(c.nx) +
+           ", ny: " + std::to_string(c.ny) + ", fov_x_deg: " + std::to_string(c.fov_x_deg) +
+           " }   # mrcal LENSMODEL_SPLINED_STEREOGRAPHIC\n";
+  }
   out += "    fx: " + FormatYamlDouble(camera.fx) + "\n";
   out += "    fy: " + FormatYamlDouble(camera.fy) + "\n";
   out += "    cx: " + FormatYamlDouble(camera.cx) + "\n";
   out += "    cy: " + FormatYamlDouble(camera.cy) + "\n";
   out += "    distortion: " + FormatYamlList(camera.distortion.data(), camera.distortion.size()) +
-         "   # OpenCV order; empty for pinhole\n";
+         (camera.type == CameraModelType::kSplined
+              ? "   # spline control values, mrcal's order (2 nx ny)\n"
+              : "   # OpenCV order; empty for pinhole\n");
 }
 
 std::string FormatTransform(const Rigid3d& transform) {

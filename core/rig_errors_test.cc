@@ -59,7 +59,7 @@ std::vector<BadRig> BadRigs() {
       {"zero quaternion", Replace(full, "[0.0, 0.0, 0.6, 0.8]", "[0, 0, 0, 0]"),
        "extrinsics.depth_from_thermal.q_xyzw: not a unit quaternion (norm 0)"},
       {"unknown model", Replace(full, "model: pinhole", "model: fisheye"),
-       "cameras.depth.model: must be pinhole or opencv, got 'fisheye'"},
+       "cameras.depth.model: must be pinhole, opencv or splined, got 'fisheye'"},
       {"opencv with 3 coefficients",
        Replace(full, "[0.1, -0.25, 0.001, -0.002, 0.05]", "[0.1, 0, 0]"),
        "cameras.rgb.distortion: opencv needs 4, 5 or 8 coefficients, got 3"},
@@ -239,10 +239,10 @@ std::vector<BadRig> BadRigs() {
       {"tab indentation", Replace(full, "    fy: 526.0\n", "\tfy: 526.0\n"), "YAML syntax error"},
       // yaml-cpp reads an unclosed quote to the end of the file: caught all the same.
       {"unclosed quote", Replace(full, "model: pinhole", "model: \"pinhole"),
-       "cameras.depth.model: must be pinhole or opencv, got string \"pinhole fx: 525.0 fy: 526.0 "
+       "cameras.depth.model: must be pinhole, opencv or splined, got string \"pinhole fx: 525.0 fy: 526.0 "
        "cx: 319.5 cy...\""},
       {"multi-line name", Replace(full, "model: pinhole", "model: |\n      pin\n      hole"),
-       "cameras.depth.model: must be pinhole or opencv, got string \"pin\\nhole\\n\""},
+       "cameras.depth.model: must be pinhole, opencv or splined, got string \"pin\\nhole\\n\""},
       {"negative infinity", Replace(full, "cy: 239.5", "cy: -.Inf"),
        "cameras.depth.cy: must be finite"},
   };

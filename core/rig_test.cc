@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "tests/support.h"
 #include "core/rig_test_support.h"
+#include "core/splined_test_support.h"
 
 namespace hw::core {
 namespace {
@@ -398,6 +399,69 @@ TEST(RigTest, CheckNamesTheBadField) {
   EXPECT_EQ(rig.Check(),
             "time_offset_s.thermal: must be 0 when cameras.thermal is absent, got 0.5");
 }
+
+
+// ---------------------------------------------------------------------------------------
+// Splined cameras (mrcal LENSMODEL_SPLINED_STEREOGRAPHIC; beyond scan-format.md).
+
+namespace splined {
+
+Rig SplinedRig() {
+  Rig rig = MakeRig(true, true);
+  rig.thermal = test::SplinedTestCamera(640, 512, 554, {2, 10, 9, 66}, -0.12);
+  rig.thermal->distortion[5] = 1.0 / 3.0 * 1e-3;  // all 17 digits
+  rig.thermal->distortion[6] = 5e-324;
+  return rig;
+}
+
+TEST(RigSplinedTest, RoundTripsBitForBit) {
+  const Rig rig = SplinedRig();
+  const std::string text = FormatRig(rig);
+  EXPECT_THAT(text, HasSubstr("    model: splined"));
+  EXPECT_THAT(text, HasSubstr("    splined: { order: 2, nx: 10, ny: 9, fov_x_deg: 66 }"));
+  const Rig back = ParseRig(text, "rig.yaml");
+  ExpectSameRig(rig, back);
+  EXPECT_TRUE(*back.thermal == *rig.thermal);
+  EXPECT_EQ(FormatRig(back), text);
+}
+
+// The thermal camera of SplinedRig's text with `from` replaced by `to`: the InputError.
+std::string SplinedError(const std::string& from, const std::string& to) {
+  const std::string text = FormatRig(SplinedRig());
+  EXPECT_NE(text.find(from), std::string::npos) << from;
+  return RigError(Replace(text, from, to));
+}
+
+TEST(RigSplinedTest, BadConfigsAreRefusedNamingTheKey) {
+  EXPECT_THAT(SplinedError("order: 2", "order: 4"),
+              HasSubstr("cameras.thermal.splined.order: must be 2 or 3, got 4"));
+  EXPECT_THAT(SplinedError("nx: 10", "nx: 3"),
+              HasSubstr("cameras.thermal.splined.nx: must be in [4, 64], got 3"));
+  EXPECT_THAT(SplinedError("ny: 9", "ny: 65"),
+              HasSubstr("cameras.thermal.splined.ny: must be in [4, 64], got 65"));
+  EXPECT_THAT(SplinedError("fov_x_deg: 66", "fov_x_deg: 180"),
+              HasSubstr("cameras.thermal.splined.fov_x_deg: must be in [1, 179] degrees, got 180"));
+  EXPECT_THAT(SplinedError("fov_x_deg: 66", "fov_x_deg: 66.5"),
+              HasSubstr("cameras.thermal.splined.fov_x_deg"));
+  EXPECT_THAT(SplinedError("nx: 10", "nx: 11"),
+              HasSubstr("cameras.thermal.distortion: splined with nx = 11, ny = 9 needs 2 nx ny "
+                        "= 198 control values, got 180"));
+  EXPECT_THAT(SplinedError(", fov_x_deg: 66", ""),
+              HasSubstr("cameras.thermal.splined.fov_x_deg: missing required key"));
+  EXPECT_THAT(SplinedError(" }   # mrcal", ", knots: 3 }   # mrcal"),
+              HasSubstr("cameras.thermal.splined: unknown key 'knots'"));
+  // The block belongs to splined cameras only, and they need it.
+  EXPECT_THAT(SplinedError("    splined: { order: 2", "    splined: { order: 2"),
+              HasSubstr("<no error>"));
+  EXPECT_THAT(SplinedError("model: splined", "model: opencv"),
+              HasSubstr("cameras.thermal.splined: only a splined camera has this block"));
+  const std::string text = FormatRig(SplinedRig());
+  const size_t begin = text.find("    splined: {");
+  const std::string without_block = text.substr(0, begin) + text.substr(text.find('\n', begin) + 1);
+  EXPECT_THAT(RigError(without_block), HasSubstr("cameras.thermal.splined: missing required key"));
+}
+
+}  // namespace splined
 
 }  // namespace
 }  // namespace hw::core

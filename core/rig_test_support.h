@@ -85,6 +85,9 @@ inline void ExpectSameCamera(const CameraModel& a, const CameraModel& b) {
   EXPECT_EQ(a.cx, b.cx);
   EXPECT_EQ(a.cy, b.cy);
   EXPECT_EQ(a.distortion, b.distortion);
+  if (a.type == CameraModelType::kSplined) {
+    EXPECT_EQ(a.splined, b.splined);
+  }
 }
 
 inline void ExpectSameTransform(const Rigid3d& a, const Rigid3d& b) {

@@ -11,7 +11,9 @@ namespace hw::reconstruct {
 namespace {
 
 // True when Distort is the identity: a pinhole, or an OpenCV model with all coefficients 0.
+// (Never a splined model: with all controls 0 it is still the stereographic projection.)
 bool IsDistortionFree(const core::CameraModel& camera) {
+  if (camera.type == core::CameraModelType::kSplined) return false;
   return std::all_of(camera.distortion.begin(), camera.distortion.end(), [](double k) { return k == 0; });
 }
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/splined_test_support.h"
 #include "reconstruct/tsdf_test_support.h"
 
 namespace hw::reconstruct {
@@ -191,6 +192,24 @@ TEST(CameraRays, PinholeModelIsItsOwnCovering) {
     }
     ExpectRaysProjectToTheirPixels(rays);
   }
+}
+
+// mrcal's splined model (a 320 x 240 lens, 16 x 13 knots over 80 degrees): every pixel has
+// its ray, and a spline whose controls are all 0 is still not distortion-free (it is the
+// stereographic projection, not a pinhole).
+TEST(CameraRays, SplinedLensRaysProjectToTheirPixels) {
+  const CameraRays rays(core::test::SplinedTestCamera(320, 240, 250));
+  for (int y = 0; y < rays.height(); ++y) {
+    for (int x = 0; x < rays.width(); ++x) ASSERT_TRUE(rays.valid(x, y)) << x << " " << y;
+  }
+  ExpectRaysProjectToTheirPixels(rays);
+  core::CameraModel stereographic = core::test::SplinedTestCamera(320, 240, 250);
+  std::fill(stereographic.distortion.begin(), stereographic.distortion.end(), 0.0);
+  const CameraRays flat(stereographic);
+  ExpectRaysProjectToTheirPixels(flat);
+  // At the image corner (r ~ 0.8, 38 degrees) the stereographic projection is 2 tan(theta/2)
+  // = 0.69 against tan(theta) = 0.8: ~25 px at f = 250.
+  EXPECT_GT(flat.distortion_px(0, 0), 10.0f);
 }
 
 TEST(CameraRays, DefaultHasNoPixels) {

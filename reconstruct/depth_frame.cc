@@ -350,9 +350,11 @@ cv::Mat HalfIntensity(const cv::Mat& intensity, int num_threads) {
 }  // namespace
 
 Undistorter::Undistorter(const core::CameraModel& camera) : pinhole_(PinholeCamera::Of(camera)) {
+  // A splined model with all controls 0 is still stereographic, never the identity.
   identity_ = camera.type == core::CameraModelType::kPinhole ||
-              std::all_of(camera.distortion.begin(), camera.distortion.end(),
-                          [](double k) { return k == 0; });
+              (camera.type == core::CameraModelType::kOpenCV &&
+               std::all_of(camera.distortion.begin(), camera.distortion.end(),
+                           [](double k) { return k == 0; }));
   if (identity_) return;
   map_x_.create(camera.height, camera.width, CV_32FC1);
   map_y_.create(camera.height, camera.width, CV_32FC1);

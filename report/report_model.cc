@@ -244,10 +244,17 @@ Section InspectionSection(const Job& job, const core::Rig* rig) {
 }
 
 std::string CameraText(const core::CameraModel& c) {
-  std::string s = StringPrintf("%d × %d px, %s, fx %.1f, fy %.1f, cx %.1f, cy %.1f px", c.width, c.height,
-                               c.type == core::CameraModelType::kPinhole ? "pinhole" : "OpenCV distortion", c.fx, c.fy,
-                               c.cx, c.cy);
-  if (!c.distortion.empty()) {
+  const std::string model =
+      c.type == core::CameraModelType::kPinhole ? "pinhole"
+      : c.type == core::CameraModelType::kOpenCV
+          ? "OpenCV distortion"
+          : StringPrintf("mrcal splined stereographic (order %d, %d × %d knots, %d° across)", c.splined.order,
+                         c.splined.nx, c.splined.ny, c.splined.fov_x_deg);
+  std::string s = StringPrintf("%d × %d px, %s, fx %.1f, fy %.1f, cx %.1f, cy %.1f px", c.width, c.height, model.c_str(),
+                               c.fx, c.fy, c.cx, c.cy);
+  if (c.type == core::CameraModelType::kSplined) {
+    s += StringPrintf("\n%zu spline control values", c.distortion.size());  // hundreds: not listed
+  } else if (!c.distortion.empty()) {
     std::vector<std::string> k;
     for (double d : c.distortion) k.push_back(StringPrintf("%.4g", d));
     s += "\ndistortion " + Join(k, ", ");
