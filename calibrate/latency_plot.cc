@@ -24,7 +24,7 @@ struct Panel {
   void Frame(cv::Mat& image, const std::string& x_label, const std::string& title) const {
     cv::rectangle(image, box, cv::Scalar(120, 120, 120), 1);
     Label(image, title, cv::Point(box.x, box.y - 8), 0.55);
-    Label(image, x_label, cv::Point(box.x + box.width - 220, box.y + box.height + 34), 0.45);
+    Label(image, x_label, cv::Point(box.x + box.width - 300, box.y + box.height + 34), 0.45);
     for (int k = 0; k <= 4; ++k) {
       const double x = x0 + (x1 - x0) * k / 4;
       const cv::Point2d p = At(x, y0);
