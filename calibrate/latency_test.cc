@@ -263,6 +263,15 @@ TEST(LatencySession, ErrorsNameTheProblem) {
     core::WriteFileAtomically(index, text);
   }
   expect_error(folder, "no moving blob in enough depth frames");
+  // Motion below what the options ask for (the 30 cm swing is ~30 px RMS in 160 × 120 depth).
+  LatencyOptions still;
+  still.min_motion_px = 1000;
+  try {
+    EstimateLatency(core::Scan::Open(session), still);
+    ADD_FAILURE() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the blob barely moves in depth"), std::string::npos) << e.what();
+  }
   // The 1 Hz swing searched over ±1 s: it repeats within the range (the 1.5 s session
   // overlaps itself by 0.5 s at a 1 s shift).
   LatencyOptions wide;
