@@ -194,6 +194,10 @@ TEST(LatencySession, OffsetsMatchTheTruthOverSeedsClocksAndBolometers) {
     EXPECT_EQ(r.depth_track.missing, 0);
     EXPECT_GT(r.rgb.peak_correlation, 0.99);
     EXPECT_GT(r.thermal.peak_correlation, 0.99);
+    // One motion axis for all cameras: the signals agree in sign (a flipped one would
+    // correlate at -1 and be rejected).
+    EXPECT_GT(r.rgb.gain, 0);
+    EXPECT_GT(r.thermal.gain, 0);
   }
 }
 
