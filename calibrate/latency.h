@@ -58,6 +58,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -114,6 +115,11 @@ using LatencyProgressFn = std::function<void(int done, int total)>;
 // stream with too few blobs is returned as is (EstimateLatency judges).
 BlobTrack TrackBlob(const core::Scan& scan, core::Stream stream, const LatencyOptions& options,
                     const LatencyProgressFn& progress = nullptr, int progress_base = 0, int progress_total = 0);
+
+// Principal axis (unit; its larger component positive, so that cameras looking the same
+// way agree in sign) and RMS spread along it of the finite points (NaN ones skipped).
+// Fewer than 2 points: (x axis, 0).
+std::pair<Eigen::Vector2d, double> PrincipalAxis(const std::vector<Eigen::Vector2d>& points);
 
 // A normalised 1D signal on a stream's own clock (NaN samples: missing).
 struct LatencySignal {
