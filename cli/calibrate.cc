@@ -12,6 +12,7 @@
 #include "calibrate/image_source.h"
 #include "calibrate/square_grid.h"
 #include "calibrate/target_detect.h"
+#include "cli/calibrate_latency.h"
 #include "cli/command.h"
 #include "core/atomic_file.h"
 #include "core/cameramodel_io.h"
@@ -421,7 +422,9 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--rig", o.rig_path, "rig.yaml to merge the camera into; default: the scan's");
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
+  LatencySubcommand latency(app);
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
+  if (latency.Chosen()) return latency.Run();
   return RunGuarded([&] {
     if (model == "opencv5") {
       o.solver.model = calibrate::LensModel::kOpenCv5;
