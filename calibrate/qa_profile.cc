@@ -54,6 +54,14 @@ bool AllPass(const std::vector<QaCheck>& checks) {
   return true;
 }
 
+std::string FailedCheckNames(const std::vector<QaCheck>& checks) {
+  std::string failed;
+  for (const QaCheck& q : checks) {
+    if (!q.pass) failed += (failed.empty() ? "" : ", ") + q.name;
+  }
+  return failed;
+}
+
 std::string FormatQaCheck(const QaCheck& c) {
   const std::string unit = c.unit.empty() ? "" : " " + c.unit;
   return core::StringPrintf("%s  %-17s %8.4g%s %s %g%s  %s", c.pass ? "PASS" : "FAIL", c.name.c_str(), c.measured,

@@ -47,6 +47,8 @@ std::vector<QaCheck> EvaluateQa(const QaProfile& profile, const QaMeasurements& 
 bool AllPass(const std::vector<QaCheck>& checks);
 // "PASS  rms_px  0.182 px <= 0.5 px  RMS residual per coordinate" — one line per check.
 std::string FormatQaCheck(const QaCheck& check);
+// The names of the failed checks, ", "-separated ("" when all pass).
+std::string FailedCheckNames(const std::vector<QaCheck>& checks);
 
 // qa.yaml, strict (unknown key, wrong type, value out of range: one line naming key and
 // line). Absent keys keep the defaults above. Throws core::InputError.

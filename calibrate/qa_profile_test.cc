@@ -51,6 +51,8 @@ TEST(QaProfileTest, VerdictsCompareMeasuredWithThreshold) {
   EXPECT_TRUE(checks[1].pass);
   EXPECT_FALSE(checks[5].pass);
   EXPECT_FALSE(AllPass(checks));
+  EXPECT_EQ(FailedCheckNames(checks), "coverage");
+  EXPECT_EQ(FailedCheckNames(EvaluateQa(p, QaMeasurements{})).empty(), false);
   EXPECT_EQ(FormatQaCheck(checks[5]), "FAIL  coverage              0.49 >= 0.5  image cells (8 x 6) observed");
   m.worst_px = std::nan("");
   EXPECT_FALSE(EvaluateQa(p, m)[2].pass);  // NaN never passes

@@ -440,11 +440,7 @@ int RunCalibrate(int argc, char** argv) {
     const IntrinsicsCommandResult result = CalibrateIntrinsics(o, common.quiet);
     if (!common.quiet) std::cout << FormatIntrinsicsSummary(result, o.out_folder) << std::flush;
     if (!result.pass) {
-      std::string failed;
-      for (const calibrate::QaCheck& q : result.checks) {
-        if (!q.pass) failed += (failed.empty() ? "" : ", ") + q.name;
-      }
-      PrintError("the camera failed QA: " + failed + " (intrinsics.json has every check)");
+      PrintError("the camera failed QA: " + calibrate::FailedCheckNames(result.checks) + " (intrinsics.json has every check)");
       return kExitFailure;
     }
     return kExitOk;

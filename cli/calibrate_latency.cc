@@ -216,11 +216,7 @@ int LatencySubcommand::Run() {
     const LatencyCommandResult result = CalibrateLatency(options_, common_.quiet);
     if (!common_.quiet) std::cout << FormatLatencySummary(result, options_.out_folder) << std::flush;
     if (!result.pass) {
-      std::string failed;
-      for (const calibrate::QaCheck& q : result.checks) {
-        if (!q.pass) failed += (failed.empty() ? "" : ", ") + q.name;
-      }
-      PrintError("the latency calibration failed QA: " + failed + " (latency.json has every check)");
+      PrintError("the latency calibration failed QA: " + calibrate::FailedCheckNames(result.checks) + " (latency.json has every check)");
       return kExitFailure;
     }
     return kExitOk;

@@ -11,6 +11,8 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libopencv-dev libopencv-contrib-dev libcli11-dev libpng-dev
   # calibrate
   libceres-dev libmrcal-dev libapriltag-dev
+  # calibrate: mrcal's sparse Jacobian is a CHOLMOD matrix (also pulled in by libmrcal-dev)
+  libsuitesparse-dev
   # analyze / fixtures; core decodes JPEG and TIFF frames with OpenImageIO
   libembree-dev libtbb-dev libopenimageio-dev
   # analyze: k-d trees for nearest-point queries (spot surroundings, before/after alignment)
