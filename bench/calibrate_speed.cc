@@ -4,14 +4,17 @@
 // first), the parameters, the RMS and their differences.
 //
 //   bench_calibrate_speed --images DIR|GLOB [--rows 6] [--cols 9] [--square 0.025] [--repeat 5]
-//   bench_calibrate_speed --synthetic 20 [--square 0.04] [--repeat 5]
+//   bench_calibrate_speed --synthetic 20 [--target chessboard|square_grid] [--square 0.04] [--repeat 5]
 //   either with [--outlier-sigmas 3]: heatwave's outlier threshold (its default; 100 keeps
-//   every corner, as OpenCV does, to separate the rejection from the solvers' difference)
+//   every corner, as OpenCV does, to separate the rejection from the solvers' difference),
+//   and [--target-shape 1|0]: heatwave's estimate of the squares' apparent shape (on by
+//   default; square_grid only — the time it costs)
 //
 // --images: every image of a folder (or a cv::glob pattern, e.g. '/data/left*.jpg'), read as
 // 8-bit grey, its chessboard (rows x cols inner corners, square metres) found by
 // calibrate::DetectChessboard; rejected images are listed and left out. --synthetic N: N
-// views x 54 corners of a 9x6 chessboard seen by a known opencv5 640x480 camera with
+// views x 54 corners of a 9x6 chessboard (or 140 corners of a 7x5 square_grid, 2 cm holes)
+// seen by a known opencv5 640x480 camera with
 // 0.3 px Gaussian noise per coordinate (as calibrate/intrinsics_solver_test.cc), so the
 // bench runs without data and both results can be compared with the truth.
 //
@@ -55,6 +58,8 @@ namespace core = hw::core;
 struct Args {
   std::string images;
   int synthetic = 0;
+  std::string target = "chessboard";  // --synthetic: chessboard (9 x 6) or square_grid (7 x 5 holes)
+  bool target_shape = true;           // heatwave's IntrinsicsOptions::estimate_target_shape
   int rows = 6, cols = 9;
   double square_m = std::numeric_limits<double>::quiet_NaN();  // NaN: per mode's default
   int repeat = 5;
@@ -65,8 +70,9 @@ struct Args {
   std::fprintf(stderr,
                "%s\nusage: bench_calibrate_speed --images DIR|GLOB [--rows 6] [--cols 9] "
                "[--square 0.025] [--repeat 5]\n"
-               "       bench_calibrate_speed --synthetic N [--square 0.04] [--repeat 5]\n"
-               "       either with [--outlier-sigmas 3] (heatwave's rejection; 100: none)\n",
+               "       bench_calibrate_speed --synthetic N [--target chessboard|square_grid] [--square 0.04] [--repeat 5]\n"
+               "       either with [--outlier-sigmas 3] (heatwave's rejection; 100: none),\n"
+               "       [--target-shape 1|0] (heatwave estimates the squares' apparent shape: square_grid)\n",
                message);
   std::exit(2);
 }
@@ -84,13 +90,16 @@ Args Parse(int argc, char** argv) {
     else if (flag == "--square") args.square_m = std::atof(value);
     else if (flag == "--repeat") args.repeat = std::atoi(value);
     else if (flag == "--outlier-sigmas") args.outlier_sigmas = std::atof(value);
+    else if (flag == "--target") args.target = value;
+    else if (flag == "--target-shape") args.target_shape = std::atoi(value) != 0;
     else Usage(("unknown flag " + flag).c_str());
   }
   if (args.images.empty() == (args.synthetic == 0)) Usage("give exactly one of --images, --synthetic");
   if (!args.images.empty() && (args.rows < 2 || args.cols < 2)) Usage("--rows, --cols: >= 2");
   if (args.images.empty() && args.synthetic < 3) Usage("--synthetic: >= 3 views");
   if (args.repeat < 1) Usage("--repeat: >= 1");
-  if (std::isnan(args.square_m)) args.square_m = args.images.empty() ? 0.04 : 0.025;
+  if (args.target != "chessboard" && args.target != "square_grid") Usage("--target: chessboard or square_grid");
+  if (std::isnan(args.square_m)) args.square_m = !args.images.empty() ? 0.025 : args.target == "chessboard" ? 0.04 : 0.02;
   if (!(args.square_m > 0)) Usage("--square: > 0 metres");
   return args;
 }
@@ -105,11 +114,18 @@ struct Problem {
 
 // `count` random target poses 0.35-0.6 m away, tilted 10-40° about x and y, rolled up to
 // 20°, with every corner in the image; every corner observed with 0.3 px noise.
-Problem Synthetic(int count, double square_m) {
+Problem Synthetic(int count, double square_m, const std::string& target) {
   Problem problem;
-  problem.target.type = core::TargetType::kChessboard;
-  problem.target.rows = 6;
-  problem.target.cols = 9;
+  if (target == "square_grid") {  // 7 x 5 holes, pitch 1.75 squares: 140 corners
+    problem.target.type = core::TargetType::kSquareGrid;
+    problem.target.rows = 5;
+    problem.target.cols = 7;
+    problem.target.pitch_m = 1.75 * square_m;
+  } else {
+    problem.target.type = core::TargetType::kChessboard;
+    problem.target.rows = 6;
+    problem.target.cols = 9;
+  }
   problem.target.square_m = square_m;
   problem.truth = cal::test::SyntheticCamera();
   problem.has_truth = true;
@@ -123,9 +139,9 @@ Problem Synthetic(int count, double square_m) {
   }
   problem.views = cal::test::ObserveTarget(problem.truth, problem.target, poses, 0.3, 2);
   const size_t corners = core::TargetCorners(problem.target).size();
-  std::printf("synthetic: %d views x %zu corners, %dx%d, opencv5 truth, 0.3 px noise, "
+  std::printf("synthetic: %s, %d views x %zu corners, %dx%d, opencv5 truth, 0.3 px noise, "
               "square %g m\n",
-              count, corners, problem.width, problem.height, square_m);
+              target.c_str(), count, corners, problem.width, problem.height, square_m);
   return problem;
 }
 
@@ -220,7 +236,7 @@ const char* const kNames[9] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "
 
 int main(int argc, char** argv) {
   const Args args = Parse(argc, argv);
-  const Problem problem = args.images.empty() ? Synthetic(args.synthetic, args.square_m)
+  const Problem problem = args.images.empty() ? Synthetic(args.synthetic, args.square_m, args.target)
                                               : FromImages(args);
 
   // The same corners in OpenCV's form.
@@ -242,6 +258,7 @@ int main(int argc, char** argv) {
   cal::IntrinsicsOptions options;
   options.model = cal::LensModel::kOpenCv5;
   options.outlier_sigmas = args.outlier_sigmas;
+  options.estimate_target_shape = args.target_shape;
   if (const std::string error = options.Check(); !error.empty()) Usage(error.c_str());
   cal::IntrinsicsResult hw_result;
   OpenCvResult cv_result;
