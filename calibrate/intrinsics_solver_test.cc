@@ -189,6 +189,35 @@ TEST(SolveIntrinsics, EstimatesTheTargetShapeOfAHeatedMask) {
   EXPECT_LT(std::abs(estimated.edge_shift_px), 3 * estimated.edge_shift_sigma_px + 0.05);
 }
 
+// The smallest masks still solve with the target shape estimated: 2 x 2 holes (16 corners a
+// view), 6 views. Knots no edge reaches are held by the prior's gauge row alone; the
+// solution must not be worse than with the shape ignored by more than the noise.
+TEST(SolveIntrinsics, TinyMaskSolvesWithTheTargetShape) {
+  core::Target target;
+  target.type = core::TargetType::kSquareGrid;
+  target.rows = 2;
+  target.cols = 2;
+  target.square_m = 0.04;
+  target.pitch_m = 0.07;
+  const std::vector<core::Rigid3d> poses = RandomPoses(6, false, 41, target);
+  const std::vector<ViewObservation> views = Observe(poses, kNoisePx, 42, target);
+  IntrinsicsOptions ignore;
+  ignore.estimate_target_shape = false;
+  const IntrinsicsResult ignored = SolveIntrinsics(target, 640, 480, views, ignore);
+  const IntrinsicsResult estimated = SolveIntrinsics(target, 640, 480, views);
+  const Eigen::VectorXd truth = TruthCamera().Params();
+  const auto chi2 = [&](const IntrinsicsResult& r) {
+    const Eigen::VectorXd error = r.camera.Params() - truth;
+    return error.dot(r.intrinsics_covariance.ldlt().solve(error));
+  };
+  std::printf("  2 x 2 mask, 6 views: chi2 %.1f estimated, %.1f ignored; sigma fx %.2f vs %.2f px\n",
+              chi2(estimated), chi2(ignored), std::sqrt(estimated.intrinsics_covariance(0, 0)),
+              std::sqrt(ignored.intrinsics_covariance(0, 0)));
+  EXPECT_LT(chi2(estimated), 27.9);
+  EXPECT_TRUE(std::isfinite(estimated.edge_shift_px));
+  for (double sigma : estimated.edge_shift_sigma_m) EXPECT_TRUE(std::isfinite(sigma));
+}
+
 TEST(SolveIntrinsics, StagedAndUnstagedAgree) {
   const std::vector<ViewObservation> views = Observe(RandomPoses(15, false, 3), kNoisePx, 4);
   IntrinsicsOptions options;
