@@ -45,19 +45,6 @@ core::CameraModel StrongOpenCv8() {
   return camera;
 }
 
-// Pixel q's error against the truth as ProjectionUncertaintyMap defines it: a point at
-// range_m on the truth's ray of q, fixed in the targets' frames (truth poses), seen through
-// the solved poses (mean) and intrinsics, projects this far from q.
-double ErrorPx(const IntrinsicsResult& result, const core::CameraModel& truth,
-               const std::vector<core::Rigid3d>& poses, const Eigen::Vector2d& q, double range_m) {
-  const Eigen::Vector3d p_cam = range_m * truth.Unproject(q)->normalized();
-  Eigen::Vector3d p_cam_solved = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < poses.size(); ++i) {
-    p_cam_solved += result.camera_from_target[i] * (poses[i].Inverse() * p_cam);
-  }
-  return (result.camera.Project(p_cam_solved / static_cast<double>(poses.size())) - q).norm();
-}
-
 // The points of ProjectionUncertaintyMap's cols x rows grid with an observed corner within
 // half a grid step (in x and y): where the data constrain the model, not extrapolation.
 std::vector<bool> Covered(const std::vector<ViewObservation>& views, int width, int height,
@@ -109,7 +96,7 @@ TEST(SolveIntrinsicsSplined, ReprojectsTheTruthWithinItsUncertainty) {
         if (!covered[cell]) continue;
         const Eigen::Vector2d q(col * 639.0 / (kCols - 1), row * 479.0 / (kRows - 1));
         ASSERT_TRUE(std::isfinite(sigma_px[cell]) && sigma_px[cell] > 0) << q.transpose();
-        const double error_px = ErrorPx(result, truth, poses, q, kRangeM);
+        const double error_px = test::ProjectionErrorPx(result, truth, poses, q, kRangeM);
         worst_ratio = std::max(worst_ratio, error_px / sigma_px[cell]);
         worst_error_px = std::max(worst_error_px, error_px);
         ++checked;

@@ -11,6 +11,7 @@
 
 #include "calibrate/intrinsics_solver.h"
 #include "calibrate/square_grid.h"
+#include "calibrate/synthetic_views.h"
 #include "calibrate/target_detect.h"
 #include "core/scan.h"
 #include "fixtures/cached_test_data.h"
@@ -35,11 +36,8 @@ struct TruthComparison {
 // Renders (once per build) session `kind` (thermal square_grid, or colour aprilgrid or
 // chessboard) of rig unit `seed` with `num_views` views, detects, solves and compares, on the
 // interior 9 × 9 points of an 11 × 11 grid over the image, where truth and solution project a
-// point at 2 m seen by the true camera at that pixel. The point is carried into the solved
-// camera's frame as ProjectionUncertaintyMap defines it (mrcal's "mean of frames"): fixed in
-// every view's target frame, mapped through the solved poses and averaged. (A point fixed in
-// the camera frame would count as error what a small rotation of every pose absorbs, e.g. cx
-// against the views' rotations: several sigma on cx, which the map rightly does not report.)
+// point at 2 m seen by the true camera at that pixel, as ProjectionUncertaintyMap defines it
+// (test::ProjectionErrorPx).
 TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_t seed, int num_views,
                                 bool estimate_target_shape) {
   auto options = fixtures::CalibrationSessionOptions::Preset(kind, small, seed, seed);
@@ -83,15 +81,8 @@ TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_
   for (int r = 1; r + 1 < map_rows; ++r) {
     for (int c = 1; c + 1 < map_cols; ++c) {
       const Eigen::Vector2d q(c * (truth.width - 1.0) / (map_cols - 1), r * (truth.height - 1.0) / (map_rows - 1));
-      const std::optional<Eigen::Vector3d> ray = truth.Unproject(q);
-      if (!ray) continue;
-      const Eigen::Vector3d point_in_true_camera = ray->normalized() * 2.0;
-      Eigen::Vector3d point = Eigen::Vector3d::Zero();
-      for (size_t v = 0; v < views.size(); ++v) {
-        point += solved.camera_from_target[v] * (true_camera_from_target[v].Inverse() * point_in_true_camera);
-      }
-      point /= static_cast<double>(views.size());
-      const double diff = (solved.camera.Project(point) - q).norm();
+      const double diff = test::ProjectionErrorPx(solved, truth, true_camera_from_target, q, 2.0);
+      if (std::isnan(diff)) continue;
       const double s = sigma[static_cast<size_t>(r * map_cols + c)];
       diffs.push_back(diff);
       ++out.points;

@@ -314,6 +314,12 @@ std::vector<Eigen::Vector2d> MrcalProblem::Residuals(Eigen::MatrixXd* J) const {
   Eigen::Matrix<double, 2, 3> dq_dp;
   Eigen::MatrixXd dq_di;
   for (size_t v = 0; v + 1 < view_begin_.size(); ++v) {
+    // dp_cam/dp_target is the pose's rotation; u's and the metres per pixel's dependence on
+    // the pose is left out (the shape times the change of a ratio of distances: second order).
+    const Eigen::Matrix3d R =
+        num_shape > 0 && J != nullptr
+            ? core::QuaternionFromRodrigues({poses[v].r.x, poses[v].r.y, poses[v].r.z}).toRotationMatrix()
+            : Eigen::Matrix3d::Identity();
     for (int o = view_begin_[v]; o < view_begin_[v + 1]; ++o) {
       const mrcal_observation_point_t& observation = observations_[static_cast<size_t>(o)];
       const mrcal_point3_t& point = points_[static_cast<size_t>(observation.i_point)];
@@ -327,10 +333,6 @@ std::vector<Eigen::Vector2d> MrcalProblem::Residuals(Eigen::MatrixXd* J) const {
         J->block(2 * o, 0, 2, n_intrinsics) = dq_di;
         J->block(2 * o, n_intrinsics + 6 * static_cast<int>(v), 2, 6) = dq_dp * dp_drt;
         if (num_shape > 0) {
-          // dp_cam/dp_target is the pose's rotation; g's dependence on the pose is left out
-          // (w times the change of a ratio of distances: second order).
-          const Eigen::Matrix3d R =
-              core::QuaternionFromRodrigues({poses[v].r.x, poses[v].r.y, poses[v].r.z}).toRotationMatrix();
           J->block(2 * o, NumState(), 2, num_shape) = dq_dp * R * PointShapeJacobian(o);
         }
       }

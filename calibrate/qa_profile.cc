@@ -1,8 +1,10 @@
 #include "calibrate/qa_profile.h"
 
 #include <cmath>
+#include <utility>
 
 #include "core/atomic_file.h"
+#include "core/json.h"
 #include "core/option_check.h"
 #include "core/strings.h"
 #include "core/yaml_reader.h"
@@ -29,22 +31,44 @@ std::string QaProfile::Check() const {
   return "";
 }
 
+QaCheck MakeQaCheck(std::string name, std::string what, double measured, double threshold, bool at_most,
+                    std::string unit) {
+  QaCheck c{std::move(name), std::move(what), measured, threshold, at_most, std::move(unit), false};
+  c.pass = std::isfinite(measured) && (at_most ? measured <= threshold : measured >= threshold);
+  return c;
+}
+
 std::vector<QaCheck> EvaluateQa(const QaProfile& p, const QaMeasurements& m) {
-  std::vector<QaCheck> checks = {
-      {"views", "accepted views", static_cast<double>(m.views), static_cast<double>(p.min_views), false, "views"},
-      {"rms_px", "RMS residual (norm per corner)", m.rms_px, p.max_rms_px, true, "px"},
-      {"worst_px", "largest inlier residual", m.worst_px, p.max_worst_px, true, "px"},
-      {"view_rms_px", "worst view's RMS residual", m.max_view_rms_px, p.max_view_rms_px, true, "px"},
-      {"outlier_fraction", "corners rejected as outliers", m.outlier_fraction, p.max_outlier_fraction, true, ""},
-      {"coverage", "image cells (8 x 6) observed", m.coverage, p.min_coverage, false, ""},
-      {"uncertainty_px",
-       core::StringPrintf("worst projection uncertainty (1 sigma) at %g m over the observed cells", p.uncertainty_range_m),
-       m.max_uncertainty_px, p.max_uncertainty_px, true, "px"},
+  return {
+      MakeQaCheck("views", "accepted views", static_cast<double>(m.views), static_cast<double>(p.min_views), false,
+                  "views"),
+      MakeQaCheck("rms_px", "RMS residual (norm per corner)", m.rms_px, p.max_rms_px, true, "px"),
+      MakeQaCheck("worst_px", "largest inlier residual", m.worst_px, p.max_worst_px, true, "px"),
+      MakeQaCheck("view_rms_px", "worst view's RMS residual", m.max_view_rms_px, p.max_view_rms_px, true, "px"),
+      MakeQaCheck("outlier_fraction", "corners rejected as outliers", m.outlier_fraction, p.max_outlier_fraction,
+                  true, ""),
+      MakeQaCheck("coverage", "image cells (8 x 6) observed", m.coverage, p.min_coverage, false, ""),
+      MakeQaCheck("uncertainty_px",
+                  core::StringPrintf("worst projection uncertainty (1 sigma) at %g m over the observed cells",
+                                     p.uncertainty_range_m),
+                  m.max_uncertainty_px, p.max_uncertainty_px, true, "px"),
   };
-  for (QaCheck& c : checks) {
-    c.pass = std::isfinite(c.measured) && (c.at_most ? c.measured <= c.threshold : c.measured >= c.threshold);
+}
+
+std::string QaChecksJson(const std::vector<QaCheck>& checks) {
+  std::vector<std::string> items;
+  for (const QaCheck& q : checks) {
+    items.push_back(core::JsonObject()
+                        .String("check", q.name)
+                        .String("what", q.what)
+                        .Number("measured", q.measured)
+                        .String("comparison", q.at_most ? "<=" : ">=")
+                        .Number("threshold", q.threshold)
+                        .String("unit", q.unit)
+                        .String("verdict", q.pass ? "PASS" : "FAIL")
+                        .str());
   }
-  return checks;
+  return core::JsonArray(items, "  ");
 }
 
 bool AllPass(const std::vector<QaCheck>& checks) {

@@ -41,12 +41,19 @@ struct QaCheck {
   bool pass = false;
 };
 
+// A check with its verdict: pass when measured <= threshold (at_most) or >= threshold; NaN
+// never passes.
+QaCheck MakeQaCheck(std::string name, std::string what, double measured, double threshold, bool at_most,
+                    std::string unit);
 // Every check of `profile` on `m`, in qa.yaml's order. NaN measured values fail.
 std::vector<QaCheck> EvaluateQa(const QaProfile& profile, const QaMeasurements& m);
 // True when every check passed.
 bool AllPass(const std::vector<QaCheck>& checks);
 // "PASS  rms_px  0.182 px <= 0.5 px  RMS residual per coordinate" — one line per check.
 std::string FormatQaCheck(const QaCheck& check);
+// The checks as a JSON array of objects {check, what, measured, comparison, threshold,
+// unit, verdict}, as the bench's JSON files hold them.
+std::string QaChecksJson(const std::vector<QaCheck>& checks);
 // The names of the failed checks, ", "-separated ("" when all pass).
 std::string FailedCheckNames(const std::vector<QaCheck>& checks);
 

@@ -5,6 +5,7 @@
 // bench/calibrate_speed.cc share.
 
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -83,6 +84,25 @@ inline std::vector<ViewObservation> ObserveTarget(const core::CameraModel& camer
     views.push_back(std::move(view));
   }
   return views;
+}
+
+// Pixel q's error against the truth as ProjectionUncertaintyMap defines it (mrcal's "mean of
+// frames"): a point at range_m on the truth's ray of q, fixed in every view's target frame
+// (true_camera_from_target), seen through the solved poses (averaged) and intrinsics,
+// projects this far from q (pixels). A point fixed in the camera frame instead would count
+// as error what a small rotation of every pose absorbs (e.g. cx against the views'
+// rotations). NaN when the truth cannot unproject q.
+inline double ProjectionErrorPx(const IntrinsicsResult& result, const core::CameraModel& truth,
+                                const std::vector<core::Rigid3d>& true_camera_from_target, const Eigen::Vector2d& q,
+                                double range_m) {
+  const std::optional<Eigen::Vector3d> ray = truth.Unproject(q);
+  if (!ray) return std::nan("");
+  const Eigen::Vector3d point_in_true_camera = range_m * ray->normalized();
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < true_camera_from_target.size(); ++i) {
+    point += result.camera_from_target[i] * (true_camera_from_target[i].Inverse() * point_in_true_camera);
+  }
+  return (result.camera.Project(point / static_cast<double>(true_camera_from_target.size())) - q).norm();
 }
 
 }  // namespace hw::calibrate::test

@@ -109,18 +109,6 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
     }
     views.push_back(v.str());
   }
-  std::vector<std::string> checks;
-  for (const calibrate::QaCheck& q : r.checks) {
-    checks.push_back(core::JsonObject()
-                         .String("check", q.name)
-                         .String("what", q.what)
-                         .Number("measured", q.measured)
-                         .String("comparison", q.at_most ? "<=" : ">=")
-                         .Number("threshold", q.threshold)
-                         .String("unit", q.unit)
-                         .String("verdict", q.pass ? "PASS" : "FAIL")
-                         .str());
-  }
   core::JsonObject root;
   root.Int("version", 1).String("command", "heatwave calibrate intrinsics");
   root.String("images", o.images.string()).String("camera", o.camera).String("lens_model", ModelName(o.solver.model));
@@ -165,7 +153,7 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
                               .Add("grid", StringPrintf("[%d, %d]", r.grid_cols, r.grid_rows))
                               .Add("px", ArrayJson(r.uncertainty_px))
                               .str());
-  root.Add("qa", core::JsonArray(checks, "  ")).String("verdict", r.pass ? "PASS" : "FAIL");
+  root.Add("qa", calibrate::QaChecksJson(r.checks)).String("verdict", r.pass ? "PASS" : "FAIL");
   root.Add("views", core::JsonArray(views, "  "));
   root.Number("solve_s", s.solve_seconds).Number("total_s", r.seconds);
   return root.str() + "\n";

@@ -58,18 +58,6 @@ std::string PairJson(const calibrate::PairOffset& p) {
 
 std::string LatencyJson(const LatencyCommandOptions& o, const LatencyCommandResult& r) {
   const calibrate::LatencyResult& e = r.estimate;
-  std::vector<std::string> checks;
-  for (const calibrate::QaCheck& q : r.checks) {
-    checks.push_back(core::JsonObject()
-                         .String("check", q.name)
-                         .String("what", q.what)
-                         .Number("measured", q.measured)
-                         .String("comparison", q.at_most ? "<=" : ">=")
-                         .Number("threshold", q.threshold)
-                         .String("unit", q.unit)
-                         .String("verdict", q.pass ? "PASS" : "FAIL")
-                         .str());
-  }
   core::JsonObject root;
   root.Int("version", 1).String("command", "heatwave calibrate latency");
   root.String("scan", o.scan.string());
@@ -109,7 +97,7 @@ std::string LatencyJson(const LatencyCommandOptions& o, const LatencyCommandResu
                           .Int("background_frames", o.latency.background_frames)
                           .Int("bootstrap_samples", o.latency.bootstrap_samples)
                           .str());
-  root.Add("qa", core::JsonArray(checks, "  ")).String("verdict", r.pass ? "PASS" : "FAIL");
+  root.Add("qa", calibrate::QaChecksJson(r.checks)).String("verdict", r.pass ? "PASS" : "FAIL");
   root.Number("estimate_s", e.seconds).Number("total_s", r.seconds);
   return root.str() + "\n";
 }
@@ -142,10 +130,8 @@ LatencyCommandResult CalibrateLatency(const LatencyCommandOptions& o, bool quiet
   r.rig_out.rgb_time_offset_s = core::RoundToMicroseconds(e.rgb.offset_s);
   r.rig_out.thermal_time_offset_s = core::RoundToMicroseconds(e.thermal.offset_s);
   for (const auto& [name, stream, pair] : {std::tuple{"rgb_sigma_ms", "rgb", &e.rgb}, std::tuple{"thermal_sigma_ms", "thermal", &e.thermal}}) {
-    calibrate::QaCheck q{name, std::string(stream) + " clock offset uncertainty (1 sigma)", 1e3 * pair->sigma_s,
-                         o.max_sigma_ms, true, "ms"};
-    q.pass = std::isfinite(q.measured) && q.measured <= q.threshold;
-    r.checks.push_back(q);
+    r.checks.push_back(calibrate::MakeQaCheck(name, std::string(stream) + " clock offset uncertainty (1 sigma)",
+                                              1e3 * pair->sigma_s, o.max_sigma_ms, true, "ms"));
   }
   r.pass = calibrate::AllPass(r.checks);
 
