@@ -181,6 +181,10 @@ std::string IntrinsicsCommandOptions::Check() const {
              "] (or 0: chosen from the image), got " + std::to_string(value);
     }
   }
+  if (solver.model != calibrate::LensModel::kSplined &&
+      (solver.spline_order != 3 || solver.spline_nx != 0 || solver.spline_ny != 0 || solver.spline_fov_x_deg != 0)) {
+    return "--spline-order, --spline-nx, --spline-ny, --spline-fov-deg: apply to --model splined only";
+  }
   if (const std::string p = solver.Check(); !p.empty()) return p;
   return "";
 }

@@ -172,6 +172,11 @@ TEST(CalibrateCli, SolvesASplinedModelAndCarriesItThroughRigAndCameramodel) {
     EXPECT_EQ(b.exit_code, 2) << option << ": " << b.output;
     EXPECT_NE(b.output.find(option.substr(0, option.find(' ')) + ": must be"), std::string::npos) << b.output;
   }
+  // Spline options without the splined model: a usage error, not silently ignored.
+  const Result ignored = Heatwave("calibrate intrinsics --images " + session.string() +
+                                  " --camera rgb --spline-nx 10 --out " + bad.string());
+  EXPECT_EQ(ignored.exit_code, 2) << ignored.output;
+  EXPECT_NE(ignored.output.find("apply to --model splined only"), std::string::npos) << ignored.output;
   EXPECT_FALSE(fs::exists(bad));
 }
 
