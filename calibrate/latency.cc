@@ -290,7 +290,10 @@ PairOffset EstimatePairOffset(const LatencySignal& a, const LatencySignal& b, co
                                                          pair.c_str(), out.coarse_offset_s, options.max_offset_s));
   }
   // Second peak: any other local maximum (or a rising window edge) standing out of the dip
-  // that separates it from the main peak by at least 0.02.
+  // that separates it from the main peak by at least 0.02, where that dip falls below the
+  // ambiguity level (ambiguity_ratio × the peak). A bump whose dip stays above it is a ripple
+  // of the main lobe (sampling at frame times ripples the curve at the frame period: 0.971
+  // and 0.956 20 ms apart on a short session), not a second offset the motion allows.
   out.second_peak_correlation = -1;
   double second_at = 0;
   for (size_t j = 0; j < c.size(); ++j) {
@@ -302,7 +305,8 @@ PairOffset EstimatePairOffset(const LatencySignal& a, const LatencySignal& b, co
     for (size_t m = std::min(j, peak); m <= std::max(j, peak); ++m) {
       if (std::isfinite(c[m])) dip = std::min(dip, c[m]);
     }
-    if (c[j] - dip >= 0.02 && c[j] > out.second_peak_correlation) out.second_peak_correlation = c[j], second_at = out.curve_offset_s[j];
+    if (c[j] - dip >= 0.02 && dip < options.ambiguity_ratio * out.peak_correlation &&
+        c[j] > out.second_peak_correlation) out.second_peak_correlation = c[j], second_at = out.curve_offset_s[j];
   }
   if (out.second_peak_correlation >= options.ambiguity_ratio * out.peak_correlation) {
     throw core::InputError(path_for_errors, StringPrintf("%s: the offset is ambiguous: correlation %.3f at %+.3f s and %.3f "
