@@ -12,6 +12,7 @@
 #include "calibrate/image_source.h"
 #include "calibrate/square_grid.h"
 #include "calibrate/target_detect.h"
+#include "cli/calibrate_bench.h"
 #include "cli/calibrate_latency.h"
 #include "cli/command.h"
 #include "core/atomic_file.h"
@@ -207,6 +208,7 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
       bar.Advance();
     }
   }
+  r.detect_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::vector<calibrate::ViewObservation> views;
   std::string first_reason;
   for (size_t i = 0; i < r.detections.size(); ++i) {
@@ -415,8 +417,10 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
   LatencySubcommand latency(app);
+  BenchSubcommand bench(app);
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   if (latency.Chosen()) return latency.Run();
+  if (bench.Chosen()) return bench.Run();
   return RunGuarded([&] {
     if (model == "opencv5") {
       o.solver.model = calibrate::LensModel::kOpenCv5;

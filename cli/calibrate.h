@@ -45,6 +45,7 @@ struct IntrinsicsCommandResult {
   bool pass = false;
   std::vector<std::string> written;              // files, relative to out_folder
   double seconds = 0;
+  double detect_seconds = 0;                     // of `seconds`: reading the images and detecting the target
 };
 
 // Runs the calibration and writes into out_folder: intrinsics.json, camera.cameramodel

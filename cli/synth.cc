@@ -10,6 +10,7 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <set>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "core/output_folder.h"
 #include "core/progress.h"
 #include "core/strings.h"
+#include "fixtures/bench_session.h"
 #include "fixtures/calibration_sessions.h"
 #include "fixtures/scenes.h"
 #include "fixtures/synth_scan.h"
@@ -53,11 +55,21 @@ const std::vector<std::string>& ScanEntries() {
   return entries;
 }
 
+// What a bench session folder holds (fixtures/bench_session.h): removed by --overwrite.
+std::vector<std::string> BenchEntries() {
+  std::vector<std::string> entries = {"rig.yaml", "session.yaml", "truth"};
+  for (const fixtures::BenchPartSpec& part : fixtures::BenchParts(fixtures::BenchSessionOptions::Preset(true))) {
+    entries.push_back(part.folder);
+  }
+  return entries;
+}
+
 // Takes the output folder for this run (one run at a time: core/output_folder.h), refuses
 // a non-empty one unless overwrite, and with overwrite removes the scan entries of the
 // earlier scan — every frame folder whole, indexed or not — so that no stale frame or truth
 // file survives. The folder stays marked incomplete until Commit().
-std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, bool overwrite) {
+std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, bool overwrite,
+                                                        const std::vector<std::string>& entries = ScanEntries()) {
   std::error_code ec;
   if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
     throw UsageError("--out " + out.string() + ": exists and is not a folder");
@@ -69,7 +81,7 @@ std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, boo
     throw UsageError("--out " + out.string() +
                      ": folder is not empty; pass --overwrite to replace the scan in it");
   }
-  folder->Remove(ScanEntries());
+  folder->Remove(entries);
   return folder;
 }
 
@@ -231,6 +243,8 @@ struct SynthArguments {
   std::optional<double> scene_scale;
   std::optional<double> image_scale;
   std::string mask_polarity = "hot";
+  std::optional<int> views;           // --session bench: stills per target part
+  std::string colour_target = "chessboard";  // --session bench
   std::optional<int> rooms;
   bool perturb_rig = false;
   bool no_noise = false;
@@ -365,6 +379,59 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
   return kExitOk;
 }
 
+// --session bench: every part of the calibration bench with one true rig.
+int RunBenchSession(const SynthArguments& args, const CommonOptions& common) {
+  fixtures::BenchSessionOptions o = fixtures::BenchSessionOptions::Preset(args.size == "small", args.seed, args.rig_seed);
+  if (args.views) o.views = *args.views;
+  o.colour_target = args.colour_target == "aprilgrid" ? core::TargetType::kAprilGrid : core::TargetType::kChessboard;
+  o.rgb_time_offset_s = args.rgb_offset_s;
+  o.thermal_time_offset_s = args.thermal_offset_s;
+  if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
+  if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
+  if (args.thermal_rate_hz) o.thermal_rate_hz = *args.thermal_rate_hz;
+  o.latency_duration_s = args.duration_s;
+  const std::string problem = o.Check();
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"views", "--views"},           {"rgb_time_offset_s", "--rgb-offset"}, {"thermal_time_offset_s", "--thermal-offset"},
+      {"depth_rate_hz", "--depth-rate"}, {"rgb_rate_hz", "--rgb-rate"},        {"thermal_rate_hz", "--thermal-rate"},
+      {"latency_duration_s", "--duration"}};
+  for (const auto& [field, flag] : kFlags) {
+    if (problem.rfind(std::string(field) + ":", 0) == 0) throw UsageError(flag + problem.substr(std::string(field).size()));
+  }
+  ThrowIfInvalid(problem);
+  const std::unique_ptr<core::OutputFolder> folder = PrepareOutputFolder(args.out, args.overwrite, BenchEntries());
+  std::unique_ptr<LazyProgress> progress;
+  std::string current;
+  const fixtures::BenchSessionSummary summary =
+      fixtures::SynthesizeBenchSession(o, args.out, [&](const std::string& part, int done, int total) {
+        if (part != current) {
+          if (progress) progress->Finish();
+          progress = std::make_unique<LazyProgress>(part, common.quiet);
+          current = part;
+        }
+        (*progress)(done, total);
+      });
+  if (progress) progress->Finish();
+  folder->Commit();
+  if (!common.quiet) {
+    std::string out = core::StringPrintf("Session    bench  (seed %llu, %d views per target part)\n",
+                                         static_cast<unsigned long long>(args.seed), o.views);
+    out += core::StringPrintf("Folder     %s  (%s)\n", args.out.c_str(), FormatBytes(core::FolderSizeBytes(args.out)).c_str());
+    for (const fixtures::SessionSummary& p : summary.parts) {
+      out += core::StringPrintf("  %-20s %-22s depth %d, rgb %d, thermal %d frames\n", p.folder.filename().c_str(),
+                                fixtures::CalibrationSessionName(p.kind).c_str(), p.depth_frames, p.rgb_frames,
+                                p.thermal_frames);
+    }
+    out += core::StringPrintf("Rig        unit %llu; rig.yaml is the nominal rig, truth/rig.yaml the true one every part "
+                              "shares (clock offsets rgb %+.6f s, thermal %+.6f s)\n",
+                              static_cast<unsigned long long>(args.rig_seed), summary.true_rig.rgb_time_offset_s,
+                              summary.true_rig.thermal_time_offset_s);
+    out += core::StringPrintf("Done       in %s\n", core::ProgressBar::FormatDuration(summary.seconds).c_str());
+    std::cout << out << std::flush;
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunSynth(int argc, char** argv) {
@@ -380,7 +447,8 @@ int RunSynth(int argc, char** argv) {
       app.add_option("--scene", args.scene, "scene to render: " + Join(fixtures::SceneNames()));
   CLI::Option* session = app.add_option(
       "--session", args.session,
-      "calibration session to render instead: " + Join(fixtures::CalibrationSessionNames()));
+      "calibration session to render instead: " + Join(fixtures::CalibrationSessionNames()) +
+          ", or bench: every part of `heatwave calibrate bench` with one true rig");
   scene->excludes(session);
   app.add_option("--out", args.out, "output scan folder (created)");
   app.add_option("--seed", args.seed_text, "seed of everything random, 0 to 2^64-1")
@@ -436,6 +504,10 @@ int RunSynth(int argc, char** argv) {
                  "default: the --size preset's (scans: small 0.125, full 1; sessions: small "
                  "0.5, full 1)");
   app.add_option("--rooms", args.rooms, "rooms of the 'large' scene");
+  app.add_option("--views", args.views, "session bench: stills per target part, [3, 200] (default 10 small, 20 full)");
+  app.add_option("--colour-target", args.colour_target, "session bench: the colour intrinsics' target")
+      ->check(CLI::IsMember({"chessboard", "aprilgrid"}))
+      ->capture_default_str();
   app.add_flag("--perturb-rig", args.perturb_rig,
                "write a deliberately wrong rig.yaml and the true one as truth/rig.yaml");
   app.add_flag("--no-noise", args.no_noise, "ideal sensors: no noise, dropouts, drift, thermal calibration error or frames lost to the shutter");
@@ -481,6 +553,9 @@ int RunSynth(int argc, char** argv) {
       throw UsageError("one of --scene or --session is required (--list shows them)");
     }
     if (args.out.empty()) throw UsageError("--out is required");
+    if (args.session != "bench" && (args.views || args.colour_target != "chessboard")) {
+      throw UsageError(std::string(args.views ? "--views" : "--colour-target") + ": applies to --session bench only");
+    }
     if (session->count() > 0) {
       // Scan-only options must not be silently ignored.
       const std::pair<bool, const char*> scan_only[] = {
@@ -508,8 +583,24 @@ int RunSynth(int argc, char** argv) {
           {args.no_depth_artefacts, "--no-depth-artefacts"},
           {args.no_shadows, "--no-shadows"},
           {args.no_auto_exposure, "--no-auto-exposure"}};
+      // The bench takes the clock offsets and frame rates as scans do.
+      const bool bench = args.session == "bench";
+      const std::set<std::string> bench_takes = {"--rgb-offset", "--thermal-offset", "--depth-rate", "--rgb-rate",
+                                                 "--thermal-rate"};
       for (const auto& [given, name] : scan_only) {
-        if (given) throw UsageError(std::string(name) + ": applies to --scene only");
+        if (given && !(bench && bench_takes.count(name))) {
+          throw UsageError(std::string(name) + ": applies to --scene" + (bench_takes.count(name) ? " and --session bench" : "") +
+                           " only");
+        }
+      }
+      if (bench) {
+        const std::pair<bool, const char*> not_bench[] = {{args.image_scale.has_value(), "--image-scale"},
+                                                          {args.mask_polarity != "hot", "--mask-polarity"},
+                                                          {args.thermal_format != "raw", "--thermal-format"}};
+        for (const auto& [given, name] : not_bench) {
+          if (given) throw UsageError(std::string(name) + ": does not apply to --session bench");
+        }
+        return RunBenchSession(args, common);
       }
       return RunSession(args, common);
     }

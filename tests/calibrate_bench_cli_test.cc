@@ -1,0 +1,167 @@
+// End-to-end tests of `heatwave calibrate bench` on the small bench session
+// (fixtures/bench_session.h, rendered once per build): exit codes, certificate.json (every
+// part's checks, the verdict, the ids, the truth block), rig.yaml against the session's
+// truth, and a session missing a part (with and without --partial).
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/rig.h"
+#include "fixtures/bench_test_support.h"
+#include "tests/support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::test::TestFolder;
+using Result = hw::test::CommandResult;
+using nlohmann::json;
+
+Result Heatwave(const std::string& args) { return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args); }
+
+json ReadJson(const fs::path& path) { return json::parse(hw::core::ReadFile(path, uint64_t{1} << 26)); }
+
+// A profile every seed's small session meets (10 views of 160 x 120 thermal / 320 x 240
+// colour give a projection uncertainty of 0.3-0.6 px at 2 m, over the default 0.5 px on
+// some units), and one no session meets (10 views < 11).
+fs::path WriteProfile(const fs::path& folder, const std::string& name, const std::string& body) {
+  fs::create_directories(folder);
+  hw::core::WriteFileAtomically(folder / name, "version: 1\n" + body);
+  return folder / name;
+}
+
+const char* const kIntrinsicsChecks[] = {"views", "rms_px", "worst_px", "view_rms_px", "outlier_fraction", "coverage",
+                                         "uncertainty_px"};
+
+TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
+  const fs::path folder = TestFolder();  // first: it empties this test's folder
+  const fs::path session = hw::fixtures::test::CachedBenchSession();
+  const fs::path lenient = WriteProfile(folder, "lenient.yaml", "max_uncertainty_px: 3\n");
+  const fs::path out = folder / "out";
+  Result r = Heatwave("calibrate bench " + session.string() + " --out " + out.string() + " --profile " + lenient.string() +
+                      " --max-latency-sigma-ms 10");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Verdict    PASS"), std::string::npos) << r.output;
+  for (const char* f : {"rig.yaml", "certificate.json", "certificate.html", "certificate.pdf",
+                        "intrinsics-thermal/intrinsics.json", "intrinsics-rgb/intrinsics.json", "latency/latency.json"}) {
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  }
+  const json c = ReadJson(out / "certificate.json");
+  EXPECT_EQ(c["verdict"], "PASS");
+  EXPECT_EQ(c["software"].get<std::string>().rfind("heatwave ", 0), 0u);
+  EXPECT_EQ(c["date_utc"].get<std::string>().size(), 20u);  // 2026-12-02T17:00:00Z
+  EXPECT_EQ(c["ids"]["rig_serial"], "SYNTH-RIG-0");
+  EXPECT_EQ(c["ids"]["thermal_serial"], "SYNTH-THERMAL-0");
+  ASSERT_EQ(c["parts"].size(), 3u);
+  for (int i = 0; i < 2; ++i) {
+    const json& part = c["parts"][i];
+    EXPECT_EQ(part["verdict"], "PASS") << part.dump();
+    ASSERT_EQ(part["checks"].size(), std::size(kIntrinsicsChecks));
+    for (size_t k = 0; k < std::size(kIntrinsicsChecks); ++k) EXPECT_EQ(part["checks"][k]["check"], kIntrinsicsChecks[k]);
+    EXPECT_EQ(part["images"].size(), 3u);
+  }
+  EXPECT_EQ(c["parts"][0]["part"], "intrinsics-thermal");
+  EXPECT_EQ(c["parts"][1]["part"], "intrinsics-rgb");
+  EXPECT_EQ(c["parts"][2]["part"], "latency");
+  EXPECT_EQ(c["parts"][2]["checks"][0]["check"], "rgb_sigma_ms");
+  EXPECT_EQ(c["parts"][2]["checks"][1]["threshold"], 10);
+  const std::string html = hw::core::ReadFile(out / "certificate.html", uint64_t{1} << 26);
+  for (const char* name : {"uncertainty_px", "rgb_sigma_ms", "thermal_sigma_ms", "SYNTH-RIG-0"}) {
+    EXPECT_NE(html.find(name), std::string::npos) << name;
+  }
+
+  // The final rig holds every part's numbers; against the truth each is within 4 sigma of
+  // its own reported uncertainty (12 numbers: a 4-sigma miss by chance is < 0.1 %), and the
+  // clocks moved from the nominal rig's (10 ms off) towards the truth.
+  const hw::core::Rig truth = hw::core::ReadRig(session / "truth" / "rig.yaml");
+  const hw::core::Rig nominal = hw::core::ReadRig(session / "rig.yaml");
+  const hw::core::Rig rig = hw::core::ReadRig(out / "rig.yaml");
+  const json& rows = c["fixture_truth_check"]["quantities"];
+  ASSERT_EQ(rows.size(), 10u) << rows.dump();  // fx fy cx cy of 2 cameras, 2 offsets
+  for (const json& row : rows) {
+    ASSERT_TRUE(row["sigma"].is_number()) << row.dump();
+    EXPECT_LT(std::abs(row["error"].get<double>()), 4 * row["sigma"].get<double>()) << row.dump();
+  }
+  EXPECT_EQ(rows[0]["quantity"], "thermal fx");
+  EXPECT_DOUBLE_EQ(rows[0]["calibrated"].get<double>(), rig.thermal->fx);
+  EXPECT_DOUBLE_EQ(rows[0]["truth"].get<double>(), truth.thermal->fx);
+  EXPECT_NE(rig.rgb->fx, nominal.rgb->fx);
+  EXPECT_LT(std::abs(rig.thermal_time_offset_s - truth.thermal_time_offset_s),
+            std::abs(nominal.thermal_time_offset_s - truth.thermal_time_offset_s));
+  // Not calibrated by this bench yet: the extrinsics stay the nominal rig's, and say so.
+  EXPECT_EQ(rig.depth_from_thermal.translation, nominal.depth_from_thermal.translation);
+  EXPECT_NE(c.dump().find("\"source\":\"nominal (not calibrated)\""), std::string::npos);
+
+  // An earlier run is not replaced without --overwrite.
+  r = Heatwave("calibrate bench -q " + session.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--overwrite"), std::string::npos) << r.output;
+}
+
+TEST(CalibrateBenchCli, AFailedCheckFailsTheRig) {
+  const fs::path folder = TestFolder();
+  const fs::path session = hw::fixtures::test::CachedBenchSession();
+  const fs::path strict = WriteProfile(folder, "strict.yaml", "min_views: 11\nmax_uncertainty_px: 3\n");
+  const fs::path out = folder / "out";
+  const Result r = Heatwave("calibrate bench " + session.string() + " --out " + out.string() + " --profile " +
+                            strict.string() + " --max-latency-sigma-ms 10");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("error: the rig is not certified: FAIL"), std::string::npos) << r.output;
+  const json c = ReadJson(out / "certificate.json");
+  EXPECT_EQ(c["verdict"], "FAIL");
+  EXPECT_EQ(c["parts"][0]["verdict"], "FAIL");
+  EXPECT_EQ(c["parts"][0]["checks"][0]["check"], "views");
+  EXPECT_EQ(c["parts"][0]["checks"][0]["verdict"], "FAIL");
+  EXPECT_EQ(c["parts"][0]["checks"][0]["measured"], 10);
+  EXPECT_EQ(c["parts"][2]["verdict"], "PASS");
+  EXPECT_TRUE(fs::exists(out / "rig.yaml"));  // written, not certified
+}
+
+TEST(CalibrateBenchCli, AMissingPartIsNamedAndRunsOnlyWithPartial) {
+  const fs::path folder = TestFolder();
+  const fs::path session = hw::fixtures::test::CachedBenchSession();
+  // The session without its latency part (the others linked in).
+  const fs::path partial = folder / "session";
+  fs::create_directories(partial);
+  for (const char* entry : {"rig.yaml", "session.yaml"}) fs::copy(session / entry, partial / entry);
+  for (const char* part : {"intrinsics-thermal", "intrinsics-rgb"}) fs::create_directory_symlink(session / part, partial / part);
+  const fs::path lenient = WriteProfile(folder, "lenient.yaml", "max_uncertainty_px: 3\n");
+  const fs::path out = folder / "out";
+  Result r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("missing part latency/ (pass --partial"), std::string::npos) << r.output;
+  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // Not a session at all.
+  r = Heatwave("calibrate bench -q " + folder.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("not a bench session"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+
+  // --partial: what is there runs, the rest is NOT RUN, the verdict INCOMPLETE, exit 1, and
+  // the clocks stay the nominal rig's, labelled so — no number is made up.
+  r = Heatwave("calibrate bench --partial " + partial.string() + " --out " + out.string() + " --profile " + lenient.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("NOT RUN latency"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("error: the rig is not certified: INCOMPLETE"), std::string::npos) << r.output;
+  const json c = ReadJson(out / "certificate.json");
+  EXPECT_EQ(c["verdict"], "INCOMPLETE");
+  EXPECT_EQ(c["parts"][0]["verdict"], "PASS");
+  EXPECT_EQ(c["parts"][2]["verdict"], "NOT RUN");
+  EXPECT_TRUE(c["parts"][2]["checks"].empty());
+  EXPECT_FALSE(c.contains("fixture_truth_check"));  // this copy has no truth/
+  const hw::core::Rig rig = hw::core::ReadRig(out / "rig.yaml");
+  const hw::core::Rig nominal = hw::core::ReadRig(session / "rig.yaml");
+  EXPECT_EQ(rig.thermal_time_offset_s, nominal.thermal_time_offset_s);
+  bool labelled = false;
+  for (const json& q : c["rig"]["quantities"]) {
+    if (q["quantity"] == "thermal time offset") labelled = q["source"] == "nominal (not calibrated)" && q["sigma"].is_null();
+  }
+  EXPECT_TRUE(labelled);
+}
+
+}  // namespace
