@@ -546,7 +546,7 @@ int RunSynth(int argc, char** argv) {
     args.rig_seed = ParseSeed(args.rig_seed_text, "--rig-seed");
     if (args.list) {
       std::cout << "Scenes:   " << Join(fixtures::SceneNames()) << "\n"
-                << "Sessions: " << Join(fixtures::CalibrationSessionNames()) << "\n";
+                << "Sessions: " << Join(fixtures::CalibrationSessionNames()) << ", bench\n";
       return kExitOk;
     }
     if (scene->count() == 0 && session->count() == 0) {

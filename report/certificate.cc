@@ -146,7 +146,7 @@ std::string CertificateJson(const Certificate& c) {
 
 Document CertificateDocument(const Certificate& c, const fs::path& folder) {
   Document doc;
-  doc.cover.title = "Calibration certificate";
+  doc.cover.title = "Calibration certificate: " + c.verdict;  // the banner: the verdict first
   doc.cover.subtitle = VerdictLine(c);
   std::string rig_serial;
   for (const auto& [key, value] : c.ids) {

@@ -164,4 +164,22 @@ TEST(CalibrateBenchCli, AMissingPartIsNamedAndRunsOnlyWithPartial) {
   EXPECT_TRUE(labelled);
 }
 
+// `heatwave synth --session bench` refuses what it cannot honour, naming the flag (the
+// rendering itself is fixtures_bench_test's).
+TEST(CalibrateBenchCli, SynthBenchOptions) {
+  const fs::path out = TestFolder() / "session";
+  Result r = Heatwave("synth --session bench --views 2 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--views: must be in [3, 200], got 2"), std::string::npos) << r.output;
+  r = Heatwave("synth --session bench --thermal-offset 5 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--thermal-offset: must be in [-1, 1] s"), std::string::npos) << r.output;
+  r = Heatwave("synth --session bench --no-noise --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = Heatwave("synth --session latency --views 5 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--views: applies to --session bench only"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 }  // namespace
