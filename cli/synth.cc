@@ -328,7 +328,7 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
       fixtures::ParseCalibrationSessionKind(args.session);
   if (!kind) {
     throw UsageError("--session: unknown session '" + args.session +
-                     "' (known: " + Join(fixtures::CalibrationSessionNames()) + ")");
+                     "' (known: " + Join(fixtures::CalibrationSessionNames()) + ", bench)");
   }
   fixtures::CalibrationSessionOptions o =
       fixtures::CalibrationSessionOptions::Preset(*kind, args.size == "small", args.seed,
