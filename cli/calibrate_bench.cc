@@ -41,7 +41,7 @@ struct PartOutcome {
   std::vector<report::CertificateImage> images;       // paths relative to the part's folder
   std::map<std::string, double> sigmas;               // 1σ of the rig quantities it calibrated (RigItem names)
   std::string summary;                                // the command's own summary, for the log
-  double detect_seconds = 0;
+  double detect_seconds = 0;                          // reading images, finding targets / the blob
 };
 
 PartOutcome Intrinsics(const PartContext& c, const std::string& camera) {
@@ -90,6 +90,7 @@ PartOutcome Latency(const PartContext& c) {
   out.sigmas["rgb time offset"] = 1e3 * e.rgb.sigma_s;
   out.sigmas["thermal time offset"] = 1e3 * e.thermal.sigma_s;
   out.summary = FormatLatencySummary(r, c.out);
+  out.detect_seconds = r.track_seconds;
   return out;
 }
 

@@ -47,7 +47,7 @@ struct BenchResult {
   bool pass = false;                // certificate.verdict == "PASS"
   std::vector<std::string> written; // relative to out_folder
   double seconds = 0;               // wall time of the run
-  double detect_seconds = 0;        // of which reading images and detecting targets
+  double detect_seconds = 0;        // of which reading images, detecting targets, tracking the latency blob
 };
 
 // The part folders in bench order ("intrinsics-thermal", "intrinsics-rgb", "latency").

@@ -123,6 +123,7 @@ LatencyCommandResult CalibrateLatency(const LatencyCommandOptions& o, bool quiet
     r.estimate = calibrate::EstimateLatency(scan, o.latency, [&](int done, int total) {
       if (!bar) bar = std::make_unique<core::ProgressBar>("track blob", total, "frames", quiet);
       bar->Set(done);
+      if (done == total) r.track_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     });
   }
   const calibrate::LatencyResult& e = r.estimate;

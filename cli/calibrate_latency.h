@@ -37,6 +37,7 @@ struct LatencyCommandResult {
   bool pass = false;
   std::vector<std::string> written;  // files, relative to out_folder
   double seconds = 0;
+  double track_seconds = 0;  // of `seconds`: reading the frames and tracking the blob
 };
 
 // Estimates and writes out_folder/{latency.json, rig.yaml, diagnostics/signals.png}; the
