@@ -9,7 +9,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/calibrate_bench.h"
 #include "core/atomic_file.h"
+#include "core/error.h"
 #include "core/rig.h"
 #include "fixtures/bench_test_support.h"
 #include "tests/support.h"
@@ -129,34 +131,42 @@ TEST(CalibrateBenchCli, AMissingPartIsNamedAndRunsOnlyWithPartial) {
   fs::create_directories(partial);
   for (const char* entry : {"rig.yaml", "session.yaml"}) fs::copy(session / entry, partial / entry);
   for (const char* part : {"intrinsics-thermal", "intrinsics-rgb"}) fs::create_directory_symlink(session / part, partial / part);
-  const fs::path lenient = WriteProfile(folder, "lenient.yaml", "max_uncertainty_px: 3\n");
   const fs::path out = folder / "out";
-  Result r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
+  const Result r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("missing part latency/ (pass --partial"), std::string::npos) << r.output;
   EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
   EXPECT_FALSE(fs::exists(out));
-  // Not a session at all.
-  r = Heatwave("calibrate bench -q " + folder.string() + " --out " + out.string());
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("not a bench session"), std::string::npos) << r.output;
-  EXPECT_FALSE(fs::exists(out));
 
-  // --partial: what is there runs, the rest is NOT RUN, the verdict INCOMPLETE, exit 1, and
-  // the clocks stay the nominal rig's, labelled so — no number is made up.
-  r = Heatwave("calibrate bench --partial " + partial.string() + " --out " + out.string() + " --profile " + lenient.string());
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("NOT RUN latency"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("error: the rig is not certified: INCOMPLETE"), std::string::npos) << r.output;
+  // The typed function, in process. Not a session at all: refused, nothing written.
+  hw::cli::BenchCommandOptions o;
+  o.session = folder;
+  o.out_folder = out;
+  try {
+    hw::cli::RunBench(o, true);
+    ADD_FAILURE() << "no error";
+  } catch (const hw::core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a bench session"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(out));
+  // --partial: what is there runs, the rest is NOT RUN, the verdict INCOMPLETE (not a
+  // pass), and the clocks stay the nominal rig's, labelled so — no number is made up.
+  o.session = partial;
+  o.partial = true;
+  o.profile_path = WriteProfile(folder, "lenient.yaml", "max_uncertainty_px: 3\n");
+  const hw::cli::BenchResult result = hw::cli::RunBench(o, true);
+  EXPECT_FALSE(result.pass);
   const json c = ReadJson(out / "certificate.json");
   EXPECT_EQ(c["verdict"], "INCOMPLETE");
+  EXPECT_EQ(result.certificate.verdict, "INCOMPLETE");
   EXPECT_EQ(c["parts"][0]["verdict"], "PASS");
   EXPECT_EQ(c["parts"][2]["verdict"], "NOT RUN");
   EXPECT_TRUE(c["parts"][2]["checks"].empty());
   EXPECT_FALSE(c.contains("fixture_truth_check"));  // this copy has no truth/
-  const hw::core::Rig rig = hw::core::ReadRig(out / "rig.yaml");
   const hw::core::Rig nominal = hw::core::ReadRig(session / "rig.yaml");
-  EXPECT_EQ(rig.thermal_time_offset_s, nominal.thermal_time_offset_s);
+  EXPECT_EQ(hw::core::ReadRig(out / "rig.yaml").thermal_time_offset_s, nominal.thermal_time_offset_s);
+  EXPECT_EQ(result.rig.thermal_time_offset_s, nominal.thermal_time_offset_s);
+  EXPECT_NE(result.rig.thermal->fx, nominal.thermal->fx);  // calibrated
   bool labelled = false;
   for (const json& q : c["rig"]["quantities"]) {
     if (q["quantity"] == "thermal time offset") labelled = q["source"] == "nominal (not calibrated)" && q["sigma"].is_null();
