@@ -145,8 +145,13 @@ TEST(TargetExtrinsics, OptionsCheckNamesTheField) {
 
 }  // namespace
 }  // namespace hw::calibrate
+
 namespace hw::calibrate {
-TEST(TargetExtrinsicsExperiment, DISABLED_Env) {
+// Measurement by hand on sessions rendered with `heatwave synth --session extrinsics-target`:
+// EXT_SESSIONS=dir1,dir2,... (each with truth/rig.yaml); prints errors, sigmas and timings.
+// EXT_NODM=1 / EXT_NOES=1 / EXT_NOSE=1 switch off the depth model, edge shift, still errors;
+// EXT_STILLS=1 prints every still.
+TEST(TargetExtrinsicsMeasure, DISABLED_SessionsFromEnvironment) {
   const char* env = std::getenv("EXT_SESSIONS");
   if (!env) GTEST_SKIP();
   std::string list = env;
@@ -159,8 +164,10 @@ TEST(TargetExtrinsicsExperiment, DISABLED_Env) {
     core::Rig rig = core::ReadRig(session / "rig.yaml");
     const core::Rig truth = core::ReadRig(session / "truth" / "rig.yaml");
     rig.depth = truth.depth; rig.rgb = truth.rgb; rig.thermal = truth.thermal;
-    core::WriteRig("/tmp/exp-rig.yaml", rig);
-    core::ScanOptions so; so.rig_path = "/tmp/exp-rig.yaml";
+    const std::filesystem::path rig_path = std::filesystem::path(::testing::TempDir()) / "measure-rig.yaml";
+    core::WriteRig(rig_path, rig);
+    core::ScanOptions so;
+    so.rig_path = rig_path;
     const core::Scan scan = core::Scan::Open(session, so);
     TargetExtrinsicsOptions o;
     o.depth_model = std::getenv("EXT_NODM") == nullptr;
