@@ -610,8 +610,7 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     if (o.still_errors) {
       // EM step for the stills' plane error σ: E[e²] = ê² + posterior variance.
       ceres::Covariance::Options em_options;
-      em_options.algorithm_type = ceres::DENSE_SVD;
-      em_options.null_space_rank = -1;
+      em_options.algorithm_type = ceres::SPARSE_QR;
       ceres::Covariance em(em_options);
       std::vector<std::pair<const double*, const double*>> em_blocks;
       for (size_t k = 0; k < data.size(); ++k) {
