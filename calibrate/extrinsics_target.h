@@ -13,16 +13,29 @@
 //    predicted plane, then a RANSAC plane among them (holes seeing the background 3 cm
 //    behind, the hands, flying pixels on the edges are outliers).
 // Then one joint least-squares (Ceres) over depth_from_thermal, depth_from_rgb and one
-// depth_from_target per still, with three residual types — reprojection of the corners in
-// thermal and colour (px, the rig's intrinsics and distortion, fixed) and the signed
-// distance of each plate point to the plane z = 0 of the target frame (m) — each divided by
-// its noise σ and under a Huber loss. The σ of each type is re-estimated from its residuals
-// (robust RMS) and the problem solved again, `reweight_iterations` times; the plate points
-// are re-selected with the refined poses after the first solve.
+// depth_from_target per still, with reprojection residuals of the corners in thermal and
+// colour (px; the rig's intrinsics and distortion, fixed; core::CameraModel::Project with its
+// analytic Jacobian inside autodiff) and plate residuals in depth: the signed distance to
+// the plane z = 0 of the target frame of the mean point of each plane_cell_m cell (m). Each
+// residual is divided by its σ and under a Huber loss. Nuisance parameters that keep the
+// covariance honest: each camera's apparent edge shift of the holes (edge_shift), the depth
+// camera's radial disparity bowl (depth_model), and each still's depth plane error (offset,
+// two tilts) as random effects with σ estimated by EM (still_errors), plus the depth's
+// common range bias with a prior of the depth's correlated σ. The σ of every residual type
+// (corners per camera; plate points' white σ and cells' correlated σ) are re-estimated from
+// the residuals (robust RMS) and the problem solved again, `reweight_iterations` times; the
+// plate points are re-selected with the refined poses after the first solve.
 //
 // Covariance: of each extrinsic's 6 parameters in calibrate/extrinsics.h's parameterisation
-// (ω rad left rotation in the depth frame; δt m), by ceres::Covariance on the whole
-// problem (the still poses are marginalised), residuals whitened by the final σ.
+// (ω rad left rotation in the depth frame; δt m), by ceres::Covariance (dense SVD, refused
+// below min_reciprocal_condition) on the whole problem: the still poses and every nuisance
+// parameter are marginalised.
+//
+// Measured (fixtures' extrinsics-target sessions, 3 seeds, true intrinsics, nominal
+// extrinsics 1°/1 cm off as the start): full size (20 stills) rotation 0.10–0.19°,
+// translation 1.7–2.9 mm, truth within 3.7σ; small (6 stills) 0.06–0.53°, 1.7–3.1 mm,
+// within 3.4σ. Thermal and colour errors are nearly equal in every run: what limits both is
+// the depth camera's systematic error (the fixtures' Kinect-style disparity distortion).
 
 #include <functional>
 #include <string>

@@ -52,7 +52,7 @@ cv::Mat ResidualScatter(const core::CameraModel& camera, const std::vector<calib
 }
 
 // Histogram of the plate points' distances to their fitted plane (mm) with the normal density
-// of the estimated σ; 640 × 400.
+// of σ (the points' white σ and the cells' correlated σ in quadrature); 640 × 400.
 cv::Mat PlaneHistogram(const std::vector<calibrate::ResidualSample>& samples, double sigma_m) {
   const int width = 640, height = 400, margin = 40, bins = 60;
   cv::Mat out(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -79,7 +79,7 @@ cv::Mat PlaneHistogram(const std::vector<calibrate::ResidualSample>& samples, do
     if (x > margin) cv::line(out, last, p, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
     last = p;
   }
-  cv::putText(out, StringPrintf("depth points to plate plane, mm (%zu points); red: normal, sigma %.2f mm", samples.size(), s_mm),
+  cv::putText(out, StringPrintf("depth points to plate plane, mm (%zu points); red: normal, sigma %.2f mm (white + correlated)", samples.size(), s_mm),
               cv::Point(margin, 24), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   for (int t = -4; t <= 4; t += 2) {
     const double x = margin + (width - 2.0 * margin) * (t + 4) / 8.0;
@@ -119,6 +119,11 @@ std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const Extrinsi
                            .Number("sigma_thermal_px", target->sigma_thermal_px)
                            .Number("sigma_rgb_px", target->sigma_rgb_px)
                            .Number("sigma_plane_m", target->sigma_plane_m)
+                           .Number("sigma_cell_m", target->sigma_cell_m)
+                           .Number("sigma_still_offset_m", target->sigma_still_offset_m)
+                           .Number("sigma_still_tilt_rad", target->sigma_still_tilt_rad)
+                           .Number("thermal_edge_shift_m", target->thermal_edge_shift_m)
+                           .Number("rgb_edge_shift_m", target->rgb_edge_shift_m)
                            .Int("plane_points", target->plane_points)
                            .Number("plane_rms_m", target->plane_rms_m)
                            .Number("depth_model_bowl_per_m", target->depth_model.y())
@@ -179,9 +184,10 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
   }
   r.estimates = {t.thermal, t.rgb};
   r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
-                                 "sigma %.2f mm; depth bowl %+.4f /m",
+                                 "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
                                  t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,
-                                 1e3 * t.sigma_plane_m, t.depth_model.y()));
+                                 1e3 * t.sigma_plane_m, 1e3 * t.sigma_cell_m, 1e3 * o.target.plane_cell_m,
+                                 t.depth_model.y()));
   r.rig_out = r.rig_in;
   r.rig_out.depth_from_thermal = t.thermal.depth_from_camera;
   r.rig_out.depth_from_rgb = t.rgb.depth_from_camera;
@@ -213,7 +219,7 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
   core::WriteImageAtomically(o.out_folder / "diagnostics" / "rgb_residuals.png",
                              ResidualScatter(*r.rig_in.rgb, t.rgb_residuals, stills));
   core::WriteImageAtomically(o.out_folder / "diagnostics" / "plane_residuals.png",
-                             PlaneHistogram(t.plane_residuals, t.sigma_plane_m));
+                             PlaneHistogram(t.plane_residuals, std::hypot(t.sigma_plane_m, t.sigma_cell_m)));
   core::WriteRig(o.out_folder / "rig.yaml", r.rig_out);
   r.written = {"diagnostics/thermal_residuals.png", "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png",
                "rig.yaml", "extrinsics.json"};
