@@ -106,18 +106,12 @@ void CheckBadInputs(const fs::path& folder) {
   const Session& s = TargetSession();
   const fs::path out = folder / "out-bad";
   const std::string scan = " --scan " + s.folder.string() + " --rig " + s.rig.string() + " --out " + out.string();
-  // Too few stills for the options: an input error naming the scan.
-  Result r = Heatwave("calibrate extrinsics -q --min-stills 7" + scan);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("too few stills"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find(s.folder.string()), std::string::npos) << r.output;
-  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
-  EXPECT_FALSE(fs::exists(out));
-  // No colour stream.
+  // (Too few stills: calibrate/extrinsics_target_test.cc; it costs a full detection here.)
+  // No colour stream: an input error naming the scan.
   const fs::path copy = folder / "no-rgb";
   fs::copy(s.folder, copy, fs::copy_options::recursive);
   fs::remove(copy / "rgb.txt");
-  r = Heatwave("calibrate extrinsics -q --scan " + copy.string() + " --rig " + s.rig.string() + " --out " + out.string());
+  Result r = Heatwave("calibrate extrinsics -q --scan " + copy.string() + " --rig " + s.rig.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("rgb"), std::string::npos) << r.output;
   EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
