@@ -303,7 +303,7 @@ void SelectPlatePoints(const cv::Mat& depth_m, const core::CameraModel& depth_ca
   std::mt19937_64 rng(seed);
   std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
   int best = -1;
-  Eigen::Vector3d best_n;
+  Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ();
   double best_d = 0;
   for (int it = 0; it < o.ransac_iterations; ++it) {
     const Eigen::Vector3d& a = points[pick(rng)];
@@ -552,9 +552,9 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     result.rgb_residuals.clear();
     result.plane_residuals.clear();
     std::vector<double> thermal_values, rgb_values, plane_values;
-    // Per cell: the within-cell sum of squares, its dof, and the mean's square minus the
-    // white noise's share (for σ_cell).
-    double within_ss = 0, within_dof = 0, cell_excess = 0;
+    // Per cell: the dof of the residuals about the cell's mean, and the mean's square minus
+    // the white noise's share (for σ_cell).
+    double within_dof = 0, cell_excess = 0;
     int cells = 0, cell_dof_lost = 0;
     std::vector<std::pair<double, int>> cell_means;
     const core::Rigid3d depth_from_thermal = thermal_ref.Apply(thermal_params);
@@ -586,10 +586,7 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
       for (const std::vector<int>& cell : d.cells) {
         double mean = 0;
         for (int i : cell) mean += r[i] / static_cast<double>(cell.size());
-        for (int i : cell) {
-          within_ss += (r[i] - mean) * (r[i] - mean);
-          plane_values.push_back(r[i] - mean);
-        }
+        for (int i : cell) plane_values.push_back(r[i] - mean);
         within_dof += static_cast<double>(cell.size()) - 1;
         cell_means.emplace_back(mean, static_cast<int>(cell.size()));
         ++cells;
@@ -606,7 +603,6 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     for (const auto& [mean, n] : cell_means) cell_excess += mean * mean - sigma_plane * sigma_plane / n;
     sigma_cell = std::sqrt(std::max(cell_excess, 0.0) / std::max(cells - cell_dof_lost, 1));
     sigma_cell = std::max(sigma_cell, 1e-5);
-    (void)within_ss;
     if (o.still_errors) {
       // EM step for the stills' plane error σ: E[e²] = ê² + posterior variance.
       ceres::Covariance::Options em_options;
