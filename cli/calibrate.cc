@@ -13,6 +13,7 @@
 #include "calibrate/square_grid.h"
 #include "calibrate/target_detect.h"
 #include "cli/calibrate_bench.h"
+#include "cli/calibrate_extrinsics.h"
 #include "cli/calibrate_latency.h"
 #include "cli/command.h"
 #include "core/atomic_file.h"
@@ -417,9 +418,11 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
   LatencySubcommand latency(app);
+  ExtrinsicsSubcommand extrinsics(app);
   BenchSubcommand bench(app);
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   if (latency.Chosen()) return latency.Run();
+  if (extrinsics.Chosen()) return extrinsics.Run();
   if (bench.Chosen()) return bench.Run();
   return RunGuarded([&] {
     if (model == "opencv5") {

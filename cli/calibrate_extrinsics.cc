@@ -1,0 +1,298 @@
+#include "cli/calibrate_extrinsics.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <numbers>
+
+#include <opencv2/imgproc.hpp>
+
+#include "calibrate/diagnostics.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/json.h"
+#include "core/option_check.h"
+#include "core/output_folder.h"
+#include "core/progress.h"
+#include "core/scan.h"
+#include "core/strings.h"
+
+namespace hw::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using core::StringPrintf;
+
+const char* MethodName(ExtrinsicsMethod m) {
+  switch (m) {
+    case ExtrinsicsMethod::kAuto:
+      return "auto";
+    case ExtrinsicsMethod::kTarget:
+      return "target";
+    case ExtrinsicsMethod::kTargetless:
+      return "targetless";
+  }
+  return "?";
+}
+
+// A camera's corner residuals (projected − observed) as arrows, per still.
+cv::Mat ResidualScatter(const core::CameraModel& camera, const std::vector<calibrate::ResidualSample>& samples,
+                        int stills) {
+  std::vector<std::vector<Eigen::Vector2d>> corners(stills), residuals(stills);
+  std::vector<std::vector<bool>> outlier(stills);
+  for (const calibrate::ResidualSample& s : samples) {
+    corners[s.still].push_back(s.pixel);
+    residuals[s.still].push_back(-s.residual);  // DrawResidualField draws observed − projected
+    outlier[s.still].push_back(false);
+  }
+  return calibrate::DrawResidualField(camera.width, camera.height, corners, residuals, outlier, 20.0);
+}
+
+// Histogram of the plate points' distances to their fitted plane (mm) with the normal density
+// of σ (the points' white σ and the cells' correlated σ in quadrature); 640 × 400.
+cv::Mat PlaneHistogram(const std::vector<calibrate::ResidualSample>& samples, double sigma_m) {
+  const int width = 640, height = 400, margin = 40, bins = 60;
+  cv::Mat out(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  const double range_mm = std::max(4 * 1e3 * sigma_m, 1e-3);
+  std::vector<int> counts(bins, 0);
+  for (const calibrate::ResidualSample& s : samples) {
+    const int b = static_cast<int>(std::floor((1e3 * s.residual.x() + range_mm) / (2 * range_mm) * bins));
+    if (b >= 0 && b < bins) ++counts[b];
+  }
+  const int peak = std::max(1, *std::max_element(counts.begin(), counts.end()));
+  const double bin_w = (width - 2.0 * margin) / bins;
+  for (int b = 0; b < bins; ++b) {
+    const double h = (height - 2.0 * margin) * counts[b] / peak;
+    cv::rectangle(out, cv::Point2d(margin + b * bin_w, height - margin - h),
+                  cv::Point2d(margin + (b + 1) * bin_w - 1, height - margin), cv::Scalar(180, 130, 70), cv::FILLED);
+  }
+  // The normal density of σ scaled to the histogram's area.
+  const double n = static_cast<double>(samples.size()), width_mm = 2 * range_mm / bins, s_mm = 1e3 * sigma_m;
+  cv::Point2d last;
+  for (int x = margin; x <= width - margin; ++x) {
+    const double v = -range_mm + 2 * range_mm * (x - margin) / (width - 2.0 * margin);
+    const double density = n * width_mm * std::exp(-0.5 * v * v / (s_mm * s_mm)) / (s_mm * std::sqrt(2 * std::numbers::pi));
+    const cv::Point2d p(x, height - margin - (height - 2.0 * margin) * density / peak);
+    if (x > margin) cv::line(out, last, p, cv::Scalar(0, 0, 220), 2, cv::LINE_AA);
+    last = p;
+  }
+  cv::putText(out, StringPrintf("depth points to plate plane, mm (%zu points); red: normal, sigma %.2f mm (white + correlated)", samples.size(), s_mm),
+              cv::Point(margin, 24), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  for (int t = -4; t <= 4; t += 2) {
+    const double x = margin + (width - 2.0 * margin) * (t + 4) / 8.0;
+    cv::putText(out, StringPrintf("%.1f", t * s_mm), cv::Point2d(x - 12, height - margin + 20), cv::FONT_HERSHEY_SIMPLEX,
+                0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  return out;
+}
+
+std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const ExtrinsicsCommandResult& r,
+                               const calibrate::TargetExtrinsicsResult* target) {
+  core::JsonObject root;
+  root.Int("version", 1).String("command", "heatwave calibrate extrinsics");
+  root.String("scan", o.scan.string()).String("method", r.method);
+  root.String("parameterisation",
+              "depth_from_camera = (R, t); covariance of [omega (rad), rotation applied on the left about the depth "
+              "frame's axes; delta_t (m), additive in the depth frame]");
+  std::vector<std::string> estimates;
+  for (const calibrate::ExtrinsicsEstimate& e : r.estimates) estimates.push_back(calibrate::ExtrinsicsJson(e));
+  root.Add("estimates", core::JsonArray(estimates, "  "));
+  if (target) {
+    std::vector<std::string> stills;
+    for (const calibrate::TargetExtrinsicsStill& s : target->stills) {
+      stills.push_back(core::JsonObject()
+                           .Int("depth_frame", s.depth_frame)
+                           .Int("thermal_frame", s.thermal_frame)
+                           .Int("rgb_frame", s.rgb_frame)
+                           .Int("thermal_corners", s.thermal_corners)
+                           .Int("rgb_corners", s.rgb_corners)
+                           .Int("plane_points", s.plane_points)
+                           .Bool("used", s.used)
+                           .String("reason", s.reason)
+                           .str());
+    }
+    root.Add("target", core::JsonObject()
+                           .Int("stills_used", target->stills_used)
+                           .Number("sigma_thermal_px", target->sigma_thermal_px)
+                           .Number("sigma_rgb_px", target->sigma_rgb_px)
+                           .Number("sigma_plane_m", target->sigma_plane_m)
+                           .Number("sigma_cell_m", target->sigma_cell_m)
+                           .Number("sigma_still_offset_m", target->sigma_still_offset_m)
+                           .Number("sigma_still_tilt_rad", target->sigma_still_tilt_rad)
+                           .Number("thermal_edge_shift_m", target->thermal_edge_shift_m)
+                           .Number("rgb_edge_shift_m", target->rgb_edge_shift_m)
+                           .Int("plane_points", target->plane_points)
+                           .Number("plane_rms_m", target->plane_rms_m)
+                           .Number("depth_model_bowl_per_m", target->depth_model.y())
+                           .Number("detect_s", target->detect_seconds)
+                           .Number("solve_s", target->solve_seconds)
+                           .Add("stills", core::JsonArray(stills, "    "))
+                           .str());
+  }
+  root.Add("settings", core::JsonObject()
+                           .String("rig", o.rig_path.empty() ? (o.scan / "rig.yaml").string() : o.rig_path.string())
+                           .Number("max_rotation_sigma_deg", o.max_rotation_sigma_deg)
+                           .Number("max_translation_sigma_mm", o.max_translation_sigma_mm)
+                           .Int("min_stills", o.target.min_stills)
+                           .Bool("depth_model", o.target.depth_model)
+                           .Number("huber_sigmas", o.target.huber_sigmas)
+                           .Int("reweight_iterations", o.target.reweight_iterations)
+                           .str());
+  root.Add("qa", calibrate::QaChecksJson(r.checks)).String("verdict", r.pass ? "PASS" : "FAIL");
+  root.Number("total_s", r.seconds);
+  return root.str() + "\n";
+}
+
+}  // namespace
+
+std::string ExtrinsicsCommandOptions::Check() const {
+  if (scan.empty()) return "--scan: must be given";
+  if (out_folder.empty()) return "--out: must be given";
+  if (!(max_rotation_sigma_deg > 0 && max_rotation_sigma_deg <= 90)) {
+    return core::OptionFail("--max-rotation-sigma-deg", max_rotation_sigma_deg, "in (0, 90] degrees");
+  }
+  if (!(max_translation_sigma_mm > 0 && max_translation_sigma_mm <= 1000)) {
+    return core::OptionFail("--max-translation-sigma-mm", max_translation_sigma_mm, "in (0, 1000] mm");
+  }
+  return target.Check();
+}
+
+ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, bool quiet) {
+  const auto start = std::chrono::steady_clock::now();
+  ExtrinsicsCommandResult r;
+  ExtrinsicsMethod method = o.method;
+  if (method == ExtrinsicsMethod::kAuto) {
+    method = fs::exists(o.scan / "target.yaml") ? ExtrinsicsMethod::kTarget : ExtrinsicsMethod::kTargetless;
+  }
+  r.method = MethodName(method);
+  if (method == ExtrinsicsMethod::kTargetless) {
+    throw UsageError("--method targetless: not yet available in this build (the scan " + o.scan.string() +
+                     " has no target.yaml; record the target session or pass --method target)");
+  }
+  core::ScanOptions scan_options;
+  scan_options.rig_path = o.rig_path;
+  const core::Scan scan = core::Scan::Open(o.scan, scan_options);
+  r.rig_in = scan.rig();
+  const core::Target target = core::ReadTarget(o.scan / "target.yaml");
+  calibrate::TargetExtrinsicsResult t;
+  {
+    core::ProgressBar bar("detect", scan.NumFrames(core::Stream::kDepth), "stills", quiet);
+    t = calibrate::EstimateTargetExtrinsics(scan, target, o.target, [&](int done, int) { bar.Set(done); });
+  }
+  r.estimates = {t.thermal, t.rgb};
+  r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
+                                 "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
+                                 t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,
+                                 1e3 * t.sigma_plane_m, 1e3 * t.sigma_cell_m, 1e3 * o.target.plane_cell_m,
+                                 t.depth_model.y()));
+  r.rig_out = r.rig_in;
+  r.rig_out.depth_from_thermal = t.thermal.depth_from_camera;
+  r.rig_out.depth_from_rgb = t.rgb.depth_from_camera;
+  for (const calibrate::ExtrinsicsEstimate& e : r.estimates) {
+    r.checks.push_back(calibrate::MakeQaCheck(e.camera + "_rotation_sigma_deg",
+                                              e.camera + " rotation uncertainty, largest axis (1 sigma)",
+                                              e.RotationSigmaDeg().maxCoeff(), o.max_rotation_sigma_deg, true, "deg"));
+    r.checks.push_back(calibrate::MakeQaCheck(e.camera + "_translation_sigma_mm",
+                                              e.camera + " translation uncertainty, largest axis (1 sigma)",
+                                              e.TranslationSigmaMm().maxCoeff(), o.max_translation_sigma_mm, true, "mm"));
+  }
+  r.pass = calibrate::AllPass(r.checks);
+
+  const std::vector<std::string> outputs = {"extrinsics.json", "rig.yaml", "diagnostics/thermal_residuals.png",
+                                            "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png"};
+  core::OutputFolder folder(o.out_folder, "heatwave calibrate extrinsics");
+  if (!folder.IsEmpty()) {
+    if (!o.overwrite) {
+      folder.Abandon();
+      throw UsageError("--out " + o.out_folder.string() +
+                       ": folder is not empty; pass --overwrite to replace the calibration in it");
+    }
+    folder.Remove(outputs);
+  }
+  fs::create_directories(o.out_folder / "diagnostics");
+  const int stills = static_cast<int>(t.stills.size());
+  core::WriteImageAtomically(o.out_folder / "diagnostics" / "thermal_residuals.png",
+                             ResidualScatter(*r.rig_in.thermal, t.thermal_residuals, stills));
+  core::WriteImageAtomically(o.out_folder / "diagnostics" / "rgb_residuals.png",
+                             ResidualScatter(*r.rig_in.rgb, t.rgb_residuals, stills));
+  core::WriteImageAtomically(o.out_folder / "diagnostics" / "plane_residuals.png",
+                             PlaneHistogram(t.plane_residuals, std::hypot(t.sigma_plane_m, t.sigma_cell_m)));
+  core::WriteRig(o.out_folder / "rig.yaml", r.rig_out);
+  r.written = {"diagnostics/thermal_residuals.png", "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png",
+               "rig.yaml", "extrinsics.json"};
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  core::WriteFileAtomically(o.out_folder / "extrinsics.json", ExtrinsicsJsonFile(o, r, &t));
+  folder.Commit();
+  return r;
+}
+
+std::string FormatExtrinsicsSummary(const ExtrinsicsCommandResult& r, const fs::path& out_folder) {
+  std::string out = StringPrintf("Method     %s\n", r.method.c_str());
+  for (const std::string& note : r.notes) out += note + "\n";
+  for (const calibrate::ExtrinsicsEstimate& e : r.estimates) {
+    const core::Rigid3d& before = e.camera == "thermal" ? r.rig_in.depth_from_thermal : r.rig_in.depth_from_rgb;
+    const Eigen::Vector3d t_mm = 1e3 * e.depth_from_camera.translation;
+    const Eigen::Vector3d rs = e.RotationSigmaDeg(), ts = e.TranslationSigmaMm();
+    out += StringPrintf("%-10s t = [%+.2f %+.2f %+.2f] mm (1 sigma %.2f %.2f %.2f), rotation 1 sigma %.3f %.3f %.3f deg; "
+                        "moved %.3f deg, %.2f mm from rig.yaml; RMS %.3f %s\n",
+                        e.camera.c_str(), t_mm.x(), t_mm.y(), t_mm.z(), ts.x(), ts.y(), ts.z(), rs.x(), rs.y(), rs.z(),
+                        calibrate::RotationErrorDeg(before, e.depth_from_camera),
+                        calibrate::TranslationErrorMm(before, e.depth_from_camera), e.rms_residual,
+                        e.residual_unit.c_str());
+  }
+  out += "           sigmas about / along the depth camera's x, y, z axes\n";
+  out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
+  for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
+  std::string files;
+  for (const std::string& f : r.written) files += (files.empty() ? "" : ", ") + f;
+  out += StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), r.seconds);
+  return out;
+}
+
+ExtrinsicsSubcommand::ExtrinsicsSubcommand(CLI::App& calibrate) {
+  app_ = calibrate.add_subcommand("extrinsics",
+                                  "depth_from_thermal and depth_from_rgb: from stills of a heated square_grid seen by all "
+                                  "three cameras (target), or from a scan of a scene (targetless)");
+  AddCommonOptions(*app_, common_);
+  app_->add_option("--scan", options_.scan, "scan folder (with target.yaml for the target method)")->required();
+  app_->add_option("--rig", options_.rig_path,
+                   "rig.yaml to start from (calibrated intrinsics; its extrinsics are the first guess and are "
+                   "replaced); default: the scan's");
+  app_->add_option("--out", options_.out_folder, "output folder")->required();
+  app_->add_flag("--overwrite", options_.overwrite, "replace an earlier calibration in --out");
+  app_->add_option("--method", method_, "target, targetless, or auto: target when the scan has target.yaml")
+      ->check(CLI::IsMember({"auto", "target", "targetless"}))
+      ->capture_default_str();
+  app_->add_option("--max-rotation-sigma-deg", options_.max_rotation_sigma_deg,
+                   "QA: largest accepted 1-sigma rotation uncertainty about any axis, degrees")
+      ->capture_default_str();
+  app_->add_option("--max-translation-sigma-mm", options_.max_translation_sigma_mm,
+                   "QA: largest accepted 1-sigma translation uncertainty along any axis, mm")
+      ->capture_default_str();
+  app_->add_option("--min-stills", options_.target.min_stills, "target: stills needed in each camera")
+      ->capture_default_str();
+}
+
+bool ExtrinsicsSubcommand::Chosen() const { return app_->parsed(); }
+
+int ExtrinsicsSubcommand::Run() {
+  return RunGuarded([&] {
+    options_.method = method_ == "target"       ? ExtrinsicsMethod::kTarget
+                      : method_ == "targetless" ? ExtrinsicsMethod::kTargetless
+                                                : ExtrinsicsMethod::kAuto;
+    ThrowIfInvalid(options_.Check());
+    const ExtrinsicsCommandResult result = CalibrateExtrinsics(options_, common_.quiet);
+    if (!common_.quiet) std::cout << FormatExtrinsicsSummary(result, options_.out_folder) << std::flush;
+    if (!result.pass) {
+      PrintError("the extrinsic calibration failed QA: " + calibrate::FailedCheckNames(result.checks) +
+                 " (extrinsics.json has every check)");
+      return kExitFailure;
+    }
+    return kExitOk;
+  });
+}
+
+}  // namespace hw::cli

@@ -1,0 +1,134 @@
+// End-to-end tests of `heatwave calibrate extrinsics` on the fixtures' extrinsics-target
+// session: the extrinsics written to rig.yaml against the session's truth, the QA verdict
+// and exit code, the outputs, and what bad inputs do (one line, exit 1 or 2, nothing
+// written).
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/atomic_file.h"
+#include "core/rig.h"
+#include "tests/support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using hw::test::TestFolder;
+using Result = hw::test::CommandResult;
+
+Result Heatwave(const std::string& args) { return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args); }
+
+std::string Read(const fs::path& path) { return hw::core::ReadFile(path, uint64_t{1} << 28); }
+
+// The small extrinsics-target session (6 stills), rendered once per test binary run, and
+// the rig a bench starts the extrinsics from: the true intrinsics (calibrated before) with
+// the nominal extrinsics (1°, 1 cm off).
+struct Session {
+  fs::path folder;
+  fs::path rig;
+};
+const Session& TargetSession() {
+  static const Session session = [] {
+    Session s;
+    s.folder = TestFolder("extrinsics-target-session") / "scan";
+    const Result r = Heatwave("synth --session extrinsics-target --size small -q --overwrite --out " + s.folder.string());
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    hw::core::Rig rig = hw::core::ReadRig(s.folder / "rig.yaml");
+    const hw::core::Rig truth = hw::core::ReadRig(s.folder / "truth" / "rig.yaml");
+    rig.depth = truth.depth;
+    rig.rgb = truth.rgb;
+    rig.thermal = truth.thermal;
+    s.rig = s.folder.parent_path() / "bench-rig.yaml";
+    hw::core::WriteRig(s.rig, rig);
+    return s;
+  }();
+  return session;
+}
+
+double AngleDeg(const hw::core::Rigid3d& a, const hw::core::Rigid3d& b) {
+  return a.rotation.angularDistance(b.rotation) * 180.0 / 3.141592653589793;
+}
+double DistanceMm(const hw::core::Rigid3d& a, const hw::core::Rigid3d& b) {
+  return 1e3 * (a.translation - b.translation).norm();
+}
+
+void CheckBadInputs(const fs::path& folder);
+
+TEST(CalibrateExtrinsicsCli, WritesExtrinsicsNearTheTruthAndAVerdictAndRefusesBadInputs) {
+  const fs::path folder = TestFolder();  // first: it empties this test's folder
+  const fs::path out = folder / "out";
+  CheckBadInputs(folder);
+  const Session& s = TargetSession();
+  const std::string base = "calibrate extrinsics --scan " + s.folder.string() + " --rig " + s.rig.string() + " --out " + out.string();
+  Result r = Heatwave(base + " --max-rotation-sigma-deg 1 --max-translation-sigma-mm 10");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Method     target"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("PASS  thermal_rotation_sigma_deg"), std::string::npos) << r.output;
+  for (const char* name : {"extrinsics.json", "rig.yaml", "diagnostics/thermal_residuals.png",
+                           "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png"}) {
+    EXPECT_TRUE(fs::exists(out / name)) << name;
+  }
+  const std::string json = Read(out / "extrinsics.json");
+  EXPECT_NE(json.find("\"verdict\": \"PASS\""), std::string::npos);
+  EXPECT_NE(json.find("\"camera\": \"thermal\""), std::string::npos);
+  EXPECT_NE(json.find("\"camera\": \"rgb\""), std::string::npos);
+
+  // Against the truth: the small session gives 0.06-0.53° and 1.7-3.1 mm
+  // (calibrate/extrinsics_target_test.cc); the nominal rig is 1° and 10 mm off. 0.8° and
+  // 6 mm tell a calibrated rig from the nominal one. Everything else is the input rig's.
+  const hw::core::Rig truth = hw::core::ReadRig(s.folder / "truth" / "rig.yaml");
+  const hw::core::Rig input = hw::core::ReadRig(s.rig);
+  hw::core::Rig solved = hw::core::ReadRig(out / "rig.yaml");
+  EXPECT_LT(AngleDeg(solved.depth_from_thermal, truth.depth_from_thermal), 0.8);
+  EXPECT_LT(DistanceMm(solved.depth_from_thermal, truth.depth_from_thermal), 6.0);
+  EXPECT_LT(AngleDeg(solved.depth_from_rgb, truth.depth_from_rgb), 0.8);
+  EXPECT_LT(DistanceMm(solved.depth_from_rgb, truth.depth_from_rgb), 6.0);
+  solved.depth_from_thermal = input.depth_from_thermal;
+  solved.depth_from_rgb = input.depth_from_rgb;
+  EXPECT_EQ(hw::core::FormatRig(solved), hw::core::FormatRig(input));
+
+  // An existing calibration is not replaced without --overwrite (exit 2, untouched).
+  r = Heatwave(base + " -q");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--overwrite"), std::string::npos) << r.output;
+  // Thresholds no session meets: written, FAIL, exit 1.
+  r = Heatwave(base + " --overwrite --max-rotation-sigma-deg 0.001 --max-translation-sigma-mm 0.001");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("FAIL  thermal_rotation_sigma_deg"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("error: the extrinsic calibration failed QA"), std::string::npos) << r.output;
+  EXPECT_NE(Read(out / "extrinsics.json").find("\"verdict\": \"FAIL\""), std::string::npos);
+}
+
+// Bad inputs are one line, exit 1 (input) or 2 (usage), and write nothing. In the test
+// above, to render the session once per test program (< 20 s).
+void CheckBadInputs(const fs::path& folder) {
+  const Session& s = TargetSession();
+  const fs::path out = folder / "out-bad";
+  const std::string scan = " --scan " + s.folder.string() + " --rig " + s.rig.string() + " --out " + out.string();
+  // (Too few stills: calibrate/extrinsics_target_test.cc; it costs a full detection here.)
+  // No colour stream: an input error naming the scan.
+  const fs::path copy = folder / "no-rgb";
+  fs::copy(s.folder, copy, fs::copy_options::recursive);
+  fs::remove(copy / "rgb.txt");
+  Result r = Heatwave("calibrate extrinsics -q --scan " + copy.string() + " --rig " + s.rig.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("rgb"), std::string::npos) << r.output;
+  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // Without target.yaml the method is targetless: not in this build yet (usage, exit 2).
+  fs::remove(copy / "target.yaml");
+  r = Heatwave("calibrate extrinsics -q --scan " + copy.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("not yet available"), std::string::npos) << r.output;
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --method targetless" + scan).exit_code, 2);
+  // Bad options.
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --max-rotation-sigma-deg 0" + scan).exit_code, 2);
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --max-translation-sigma-mm -1" + scan).exit_code, 2);
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --method magic" + scan).exit_code, 2);
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --min-stills 2" + scan).exit_code, 2);
+  EXPECT_EQ(Heatwave("calibrate extrinsics -q --out " + out.string()).exit_code, 2);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
