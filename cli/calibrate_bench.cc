@@ -10,6 +10,7 @@
 
 #include "calibrate/qa_profile.h"
 #include "cli/calibrate.h"
+#include "cli/calibrate_extrinsics.h"
 #include "cli/calibrate_latency.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -23,6 +24,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using core::StringPrintf;
+
+std::string Join(const std::vector<std::string>& items, const std::string& separator) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : separator) + item;
+  return out;
+}
 
 // What a part needs: where its scan is, where its outputs go, the rig it starts from.
 struct PartContext {
@@ -94,11 +101,41 @@ PartOutcome Latency(const PartContext& c) {
   return out;
 }
 
-// The parts in bench order. EXTRINSICS: the lead inserts between the colour intrinsics and
-// the latency part
-//   {"extrinsics", "Extrinsics (target)", [](const PartContext& c) { return Extrinsics(c); }},
-// with an Extrinsics(c) calling CalibrateExtrinsics (cli/calibrate_extrinsics.h) from
-// c.scan with rig c.rig_in into c.out, its sigmas under the RigItem names below.
+// The target-based extrinsics with the intrinsics the previous parts calibrated.
+PartOutcome Extrinsics(const PartContext& c) {
+  ExtrinsicsCommandOptions o;
+  o.scan = c.scan;
+  o.rig_path = c.rig_in;
+  o.out_folder = c.out;
+  o.overwrite = true;
+  o.method = ExtrinsicsMethod::kTarget;
+  o.max_rotation_sigma_deg = c.options.max_rotation_sigma_deg;
+  o.max_translation_sigma_mm = c.options.max_translation_sigma_mm;
+  const ExtrinsicsCommandResult r = CalibrateExtrinsics(o, c.quiet);
+  PartOutcome out;
+  out.checks = r.checks;
+  out.pass = r.pass;
+  std::vector<std::string> notes;
+  for (const calibrate::ExtrinsicsEstimate& e : r.estimates) {
+    const Eigen::Vector3d rot = e.RotationSigmaDeg(), tr = e.TranslationSigmaMm();
+    notes.push_back(StringPrintf("%s: 1σ %.3f° / %.2f mm (largest axis), RMS %.3f %s", e.camera.c_str(),
+                                 rot.maxCoeff(), tr.maxCoeff(), e.rms_residual, e.residual_unit.c_str()));
+    for (int axis = 0; axis < 3; ++axis) {
+      out.sigmas["depth_from_" + e.camera + " t" + "xyz"[axis]] = tr[axis];
+    }
+    // The rotation angle's σ: the rotation vector's largest-axis σ bounds it.
+    out.sigmas["depth_from_" + e.camera + " rotation"] = rot.maxCoeff();
+  }
+  out.note = Join(notes, "; ");
+  out.images = {{"diagnostics/thermal_residuals.png", "Thermal corner residuals"},
+                {"diagnostics/rgb_residuals.png", "Colour corner residuals"},
+                {"diagnostics/plane_residuals.png", "Depth plate residuals"}};
+  out.summary = FormatExtrinsicsSummary(r, c.out);
+  out.detect_seconds = r.detect_seconds;
+  return out;
+}
+
+// The parts in bench order.
 struct PartDef {
   const char* id;
   const char* title;
@@ -108,6 +145,7 @@ const std::vector<PartDef>& Parts() {
   static const std::vector<PartDef> parts = {
       {"intrinsics-thermal", "Thermal camera intrinsics", [](const PartContext& c) { return Intrinsics(c, "thermal"); }},
       {"intrinsics-rgb", "Colour camera intrinsics", [](const PartContext& c) { return Intrinsics(c, "rgb"); }},
+      {"extrinsics", "Extrinsics (depth ← thermal, depth ← colour)", [](const PartContext& c) { return Extrinsics(c); }},
       {"latency", "Clock offsets (latency)", [](const PartContext& c) { return Latency(c); }},
   };
   return parts;
@@ -132,8 +170,7 @@ std::vector<RigItem> RigItems() {
     items.push_back({cam + " cx", "px", part, [=](const core::Rig& r) { return model(r) ? model(r)->cx : nan; }});
     items.push_back({cam + " cy", "px", part, [=](const core::Rig& r) { return model(r) ? model(r)->cy : nan; }});
   }
-  // EXTRINSICS: calibrated by the "extrinsics" part once it is in Parts(); until then the
-  // nominal rig's. Its sigmas go under these names (mm, deg).
+  // Calibrated by the "extrinsics" part; its sigmas go under these names (mm, deg).
   for (const auto& [camera, sel] : {std::pair{"thermal", true}, std::pair{"rgb", false}}) {
     const bool thermal = sel;
     auto pose = [thermal](const core::Rig& r) { return thermal ? r.depth_from_thermal : r.depth_from_rgb; };
@@ -164,12 +201,6 @@ std::vector<std::pair<std::string, std::string>> ReadIds(const fs::path& path) {
   return ids;
 }
 
-std::string Join(const std::vector<std::string>& items, const std::string& separator) {
-  std::string out;
-  for (const std::string& item : items) out += (out.empty() ? "" : separator) + item;
-  return out;
-}
-
 std::string NowUtc() {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
@@ -196,6 +227,12 @@ std::string BenchCommandOptions::Check() const {
   if (out_folder.empty()) return "--out: must be given";
   if (!(max_latency_sigma_ms > 0 && max_latency_sigma_ms <= 1000)) {
     return core::OptionFail("--max-latency-sigma-ms", max_latency_sigma_ms, "in (0, 1000] ms");
+  }
+  if (!(max_rotation_sigma_deg > 0 && max_rotation_sigma_deg <= 90)) {
+    return core::OptionFail("--max-rotation-sigma-deg", max_rotation_sigma_deg, "in (0, 90] deg");
+  }
+  if (!(max_translation_sigma_mm > 0 && max_translation_sigma_mm <= 1000)) {
+    return core::OptionFail("--max-translation-sigma-mm", max_translation_sigma_mm, "in (0, 1000] mm");
   }
   return "";
 }
@@ -364,6 +401,12 @@ BenchSubcommand::BenchSubcommand(CLI::App& calibrate) {
   app_->add_option("--profile", options_.profile_path, "qa.yaml: the intrinsics' QA thresholds (README)");
   app_->add_option("--max-latency-sigma-ms", options_.max_latency_sigma_ms,
                    "QA of the latency part: largest accepted 1-sigma uncertainty of a clock offset, ms")
+      ->capture_default_str();
+  app_->add_option("--max-rotation-sigma-deg", options_.max_rotation_sigma_deg,
+                   "QA of the extrinsics: largest accepted 1-sigma rotation uncertainty about any axis, degrees")
+      ->capture_default_str();
+  app_->add_option("--max-translation-sigma-mm", options_.max_translation_sigma_mm,
+                   "QA of the extrinsics: largest accepted 1-sigma translation uncertainty along any axis, mm")
       ->capture_default_str();
   app_->add_flag("--partial", options_.partial,
                  "run the parts the session has when some are missing (the verdict is then INCOMPLETE, exit 1)");

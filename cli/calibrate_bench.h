@@ -16,7 +16,8 @@
 //                               the certificate's fixture check (not QA)
 //   SESSION/intrinsics-thermal/ scan folder: thermal stream of a square_grid, target.yaml
 //   SESSION/intrinsics-rgb/     scan folder: rgb stream of a chessboard/aprilgrid, target.yaml
-//   [SESSION/extrinsics/]       (the lead adds the extrinsics part: BenchParts in the .cc)
+//   SESSION/extrinsics/         scan folder: depth, rgb, thermal stills of a square_grid
+//                               heated mask seen by all three, target.yaml
 //   SESSION/latency/            scan folder: depth, rgb, thermal of a waved hot object
 
 #include <filesystem>
@@ -34,6 +35,8 @@ struct BenchCommandOptions {
   std::filesystem::path out_folder;    // DIR
   std::filesystem::path profile_path;  // qa.yaml for the intrinsics parts; "" = defaults
   double max_latency_sigma_ms = 2.0;   // QA of the latency part: each offset's σ at most, ms, (0, 1000]
+  double max_rotation_sigma_deg = 0.1;   // QA of the extrinsics: largest per-axis rotation 1σ, deg, (0, 90]
+  double max_translation_sigma_mm = 2.0; // QA of the extrinsics: largest per-axis translation 1σ, mm, (0, 1000]
   bool partial = false;   // run the parts that are there when some are missing (verdict INCOMPLETE)
   bool overwrite = false; // replace an earlier bench run in out_folder
 
@@ -50,7 +53,8 @@ struct BenchResult {
   double detect_seconds = 0;        // of which reading images, detecting targets, tracking the latency blob
 };
 
-// The part folders in bench order ("intrinsics-thermal", "intrinsics-rgb", "latency").
+// The part folders in bench order ("intrinsics-thermal", "intrinsics-rgb", "extrinsics",
+// "latency").
 std::vector<std::string> BenchPartFolders();
 
 // Runs the bench. Throws core::InputError when the session folder is missing or has no

@@ -183,6 +183,7 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
     t = calibrate::EstimateTargetExtrinsics(scan, target, o.target, [&](int done, int) { bar.Set(done); });
   }
   r.estimates = {t.thermal, t.rgb};
+  r.detect_seconds = t.detect_seconds;
   r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
                                  "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
                                  t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,

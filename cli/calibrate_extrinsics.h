@@ -49,6 +49,7 @@ struct ExtrinsicsCommandResult {
   bool pass = false;
   std::vector<std::string> written;  // files, relative to out_folder
   double seconds = 0;
+  double detect_seconds = 0;  // of which detection (targets or lines), s
 };
 
 // Estimates and writes out_folder/{extrinsics.json, rig.yaml, diagnostics/...}; the folder
