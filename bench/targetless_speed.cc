@@ -43,6 +43,8 @@ int main(int argc, char** argv) {
       options.use_occlusion_lines = false;
     } else if (flag == "--start-truth") {
       start_truth = true;
+    } else if (flag == "--cluster-frames" && i + 1 < argc) {
+      options.alignment.cluster_frames = std::atoi(argv[++i]);
     } else if (flag == "--frames" && i + 1 < argc) {
       options.max_frames = std::atoi(argv[++i]);
     } else if (flag == "--diagnostic" && i + 1 < argc) {

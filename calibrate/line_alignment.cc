@@ -200,6 +200,7 @@ std::string LineAlignmentOptions::Check() const {
   if (!(min_overlap > 0 && min_overlap <= 1)) return OptionFail("min_overlap", min_overlap, "in (0, 1]");
   if (!(loss_sigmas > 0)) return OptionFail("loss_sigmas", loss_sigmas, "> 0");
   if (cluster_frames < 1) return OptionFail("cluster_frames", cluster_frames, ">= 1");
+  if (!(sigma_inflation >= 1)) return OptionFail("sigma_inflation", sigma_inflation, ">= 1");
   if (min_matches < 6) return OptionFail("min_matches", min_matches, ">= 6");
   if (!(max_sigma_deg > 0)) return OptionFail("max_sigma_deg", max_sigma_deg, "> 0 deg");
   if (!(max_sigma_mm > 0)) return OptionFail("max_sigma_mm", max_sigma_mm, "> 0 mm");
@@ -357,7 +358,7 @@ LineAlignmentResult AlignLines(const std::vector<LineFrame>& frames, const core:
     const double l = diff.eigenvalues()[i];
     if (l > 0) extra += l * diff.eigenvectors().col(i) * diff.eigenvectors().col(i).transpose();
   }
-  result.estimate.covariance = classic + extra;
+  result.estimate.covariance = classic + extra;  // inflated below, after the observability check
 
   // Unobservable direction: σ too large.
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(result.estimate.covariance.topLeftCorner<3, 3>());
@@ -379,6 +380,7 @@ LineAlignmentResult AlignLines(const std::vector<LineFrame>& frames, const core:
     result.failure = s.str();
     result.estimate.covariance.setZero();
   }
+  result.estimate.covariance *= options.sigma_inflation * options.sigma_inflation;
   return result;
 }
 
