@@ -55,8 +55,8 @@ struct Run {
 // bench_targetless_speed, meets 1 cm); the error within 4σ per block (3 dof: 99.6 % below
 // 3.7 when the covariance is right; the small session's ~30 frames are few clusters for the
 // sandwich).
-TEST(TargetlessExtrinsics, RecoversTheTruthOnSmallSessions) {
-  for (uint64_t seed = 1; seed <= 3; ++seed) {
+void CheckSeeds(uint64_t first, uint64_t last) {
+  for (uint64_t seed = first; seed <= last; ++seed) {
     core::Rig truth;
     const core::Scan scan = OpenWithBenchRig(Session(seed), &truth);
     TargetlessOptions options;
@@ -77,6 +77,12 @@ TEST(TargetlessExtrinsics, RecoversTheTruthOnSmallSessions) {
     EXPECT_EQ(diagnostic.cols, 2 * truth.thermal->width);
   }
 }
+
+TEST(TargetlessExtrinsics, RecoversTheTruthOnSmallSessions) { CheckSeeds(1, 3); }
+
+// More seeds than the suite renders (each ~20 s to render once): run with
+// --gtest_also_run_disabled_tests to check the bounds are not tuned to seeds 1–3.
+TEST(TargetlessExtrinsics, DISABLED_RecoversTheTruthOnMoreSeeds) { CheckSeeds(4, 8); }
 
 // Without a trajectory only frame pairs within 10 ms are used and the motion in between is
 // not compensated: either an estimate (reported, not bounded beyond sanity) or a clear

@@ -51,23 +51,21 @@ double PointLineDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& on_lin
   return (d - d.dot(dir) * dir).norm();
 }
 
-// Two walls meeting at a vertical corner 2.5 m away: one fold line, on the true
-// intersection within 1 cm (the planes are fitted to thousands of points whose quantisation
-// steps reach 1.6 cm at 2.8 m; their fit is good to millimetres, and the line inherits
-// that; 1 cm is a third of a pixel's footprint there... i.e. the bound a 0.3 px edge error
-// allows), parallel to it within 1°, and covering most of the corner's visible extent.
+// Two planes meeting at a vertical edge 2.5 m away (a room corner: the renderer keeps each
+// ray's nearest hit, so the edge is the farthest line), with structured-light quantisation (1.8 cm
+// steps at 2.5 m) and noise: one fold line, within 1 cm of the true intersection (each
+// plane is fitted to ~30 000 points, so its offset is good to a millimetre; the line's
+// position errs by offset / sin(90°) plus the tilt × the half-length, 0.05° × 1 m ≈ 1 mm;
+// 1 cm leaves margin for the quantisation's correlated error) and within 1° of its
+// direction, spanning most of the image height.
 TEST(DepthLines, TwoPlanesGiveTheirIntersection) {
   const core::CameraModel k = DepthCamera();
-  // Walls x' = 0 and y' = 0 of a corner, seen diagonally: normals rotated ±45° about y.
   const Eigen::Vector3d corner(0.1, 0, 2.5);
   const Eigen::Vector3d n1 = Eigen::Vector3d(1, 0, -1).normalized();
   const Eigen::Vector3d n2 = Eigen::Vector3d(-1, 0, -1).normalized();
-  // Orient both towards the camera: n·(p − corner) = 0 with n·corner > 0 → flip.
+  // Planes n·p + d = 0 through the edge.
   const std::vector<Eigen::Vector4d> planes = {Eigen::Vector4d(-n1.x(), -n1.y(), -n1.z(), n1.dot(corner)),
                                                Eigen::Vector4d(-n2.x(), -n2.y(), -n2.z(), n2.dot(corner))};
-  // A concave corner: each pixel sees the FARTHER of the two planes' hits... the renderer
-  // keeps the nearest, which is right for a convex edge; for the room corner, invert by
-  // rendering the corner as convex (pointing at the camera) instead: same line, same test.
   for (uint64_t seed = 1; seed <= 3; ++seed) {
     const cv::Mat depth = RenderPlanes(k, planes, 0.002, seed);
     DepthLineStats stats;
@@ -180,7 +178,9 @@ TEST(ImageLines, FindsTheSidesOfABlurredLowContrastShape) {
     // Pieces ending near a corner, which the blur rounds over a few pixels, may bend.
     bool near_corner = false;
     for (const auto& c : corners) near_corner = near_corner || (s.a - c).norm() < 8 || (s.b - c).norm() < 8;
-    if (!near_corner) EXPECT_TRUE(on_a_side) << s.a.transpose() << " " << s.b.transpose();
+    if (!near_corner) {
+      EXPECT_TRUE(on_a_side) << s.a.transpose() << " " << s.b.transpose();
+    }
   }
   // Each side found (LSD fragments a noisy low-contrast edge: pieces covered 23–100 % of
   // a side here; the alignment uses every piece).
