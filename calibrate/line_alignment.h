@@ -16,7 +16,9 @@
 //       rotation (unit quaternion, Ceres's EigenQuaternionManifold, whose update
 //       Exp(δ) · q is a rotation applied on the LEFT, in the depth frame) and translation of
 //       depth_from_thermal, with a Huber loss whose scale is loss_sigmas × the robust σ
-//       (MAD) of the previous iteration's residuals.
+//       (MAD) of the previous iteration's residuals; with estimate_edge_offset, also one
+//       offset (depth px) of every occlusion line across itself (Segment3d::
+//       edge_shift_per_px), marginalised out of the covariance.
 //   until the update is below 1e-3° and 1e-3 mm or max_iterations.
 //
 // Covariance, in ExtrinsicsEstimate's parameterisation [ω; δt]: the sandwich
