@@ -82,21 +82,21 @@ cv::Mat StretchThermal(const cv::Mat& apparent_c, const cv::Mat& valid, const Im
   constexpr int kBins = 256;
   std::vector<double> histogram(kBins, 0.0);
   for (const float x : values) {
-    histogram[std::clamp(static_cast<int>((x - lo) / (hi - lo) * kBins), 0, kBins - 1)] += 1;
+    histogram[std::clamp(static_cast<int>((static_cast<double>(x) - lo) / (hi - lo) * kBins), 0, kBins - 1)] += 1;
   }
   const double limit = options.max_gain * static_cast<double>(values.size()) / kBins;
   double excess = 0;
   for (double& h : histogram) excess += std::max(0.0, h - limit), h = std::min(h, limit);
-  std::vector<float> lut(kBins + 1, 0.f);
+  std::vector<double> lut(kBins + 1, 0.0);
   double cumulative = 0;
   for (int b = 0; b < kBins; ++b) {
     cumulative += histogram[b] + excess / kBins;
-    lut[b + 1] = static_cast<float>(255.0 * cumulative / static_cast<double>(values.size()));
+    lut[b + 1] = 255.0 * cumulative / static_cast<double>(values.size());
   }
   for (int v = 0; v < apparent_c.rows; ++v) {
     for (int u = 0; u < apparent_c.cols; ++u) {
       // Piecewise linear between bin edges.
-      const double x = std::clamp((apparent_c.at<float>(v, u) - lo) / (hi - lo) * kBins, 0.0, static_cast<double>(kBins) - 1e-9);
+      const double x = std::clamp((static_cast<double>(apparent_c.at<float>(v, u)) - lo) / (hi - lo) * kBins, 0.0, static_cast<double>(kBins) - 1e-9);
       const int b = static_cast<int>(x);
       const double f = x - b;
       out.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>((1 - f) * lut[b] + f * lut[b + 1]);

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
 
 #include <opencv2/imgproc.hpp>
 
@@ -19,6 +20,7 @@
 #include "core/progress.h"
 #include "core/scan.h"
 #include "core/strings.h"
+#include "core/trajectory.h"
 
 namespace hw::cli {
 namespace {
@@ -90,7 +92,8 @@ cv::Mat PlaneHistogram(const std::vector<calibrate::ResidualSample>& samples, do
 }
 
 std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const ExtrinsicsCommandResult& r,
-                               const calibrate::TargetExtrinsicsResult* target) {
+                               const calibrate::TargetExtrinsicsResult* target,
+                               const calibrate::TargetlessResult* targetless) {
   core::JsonObject root;
   root.Int("version", 1).String("command", "heatwave calibrate extrinsics");
   root.String("scan", o.scan.string()).String("method", r.method);
@@ -132,6 +135,36 @@ std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const Extrinsi
                            .Add("stills", core::JsonArray(stills, "    "))
                            .str());
   }
+  if (targetless) {
+    const calibrate::TargetlessResult& t = *targetless;
+    std::vector<std::string> frames;
+    for (const calibrate::TargetlessFrameStats& f : t.frames) {
+      frames.push_back(core::JsonObject()
+                           .Int("thermal_frame", f.thermal_index)
+                           .Int("depth_frame", f.depth_index)
+                           .Number("dt_s", f.dt_s)
+                           .Int("lines_3d", f.lines_3d)
+                           .Int("lines_2d", f.lines_2d)
+                           .Int("matches", f.matches)
+                           .str());
+    }
+    std::vector<std::string> cost, matches;
+    for (double c : t.cost_per_iteration) cost.push_back(core::JsonNumber(c));
+    for (int m : t.matches_per_iteration) matches.push_back(std::to_string(m));
+    root.Add("targetless", core::JsonObject()
+                               .Bool("used_trajectory", t.used_trajectory)
+                               .String("trajectory", o.trajectory.string())
+                               .Int("matches", t.matches)
+                               .Number("inlier_fraction", t.inlier_fraction)
+                               .Number("robust_sigma_px", t.robust_sigma_px)
+                               .Number("edge_offset_px", t.edge_offset_px)
+                               .Number("edge_offset_sigma_px", t.edge_offset_sigma_px)
+                               .Number("sigma_inflation", o.targetless.alignment.sigma_inflation)
+                               .Add("cost_per_iteration", core::JsonArray(cost))
+                               .Add("matches_per_iteration", core::JsonArray(matches))
+                               .Add("frames", core::JsonArray(frames, "    "))
+                               .str());
+  }
   root.Add("settings", core::JsonObject()
                            .String("rig", o.rig_path.empty() ? (o.scan / "rig.yaml").string() : o.rig_path.string())
                            .Number("max_rotation_sigma_deg", o.max_rotation_sigma_deg)
@@ -151,12 +184,14 @@ std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const Extrinsi
 std::string ExtrinsicsCommandOptions::Check() const {
   if (scan.empty()) return "--scan: must be given";
   if (out_folder.empty()) return "--out: must be given";
-  if (!(max_rotation_sigma_deg > 0 && max_rotation_sigma_deg <= 90)) {
+  // 0: the method's default.
+  if (!(max_rotation_sigma_deg >= 0 && max_rotation_sigma_deg <= 90)) {
     return core::OptionFail("--max-rotation-sigma-deg", max_rotation_sigma_deg, "in (0, 90] degrees");
   }
-  if (!(max_translation_sigma_mm > 0 && max_translation_sigma_mm <= 1000)) {
+  if (!(max_translation_sigma_mm >= 0 && max_translation_sigma_mm <= 1000)) {
     return core::OptionFail("--max-translation-sigma-mm", max_translation_sigma_mm, "in (0, 1000] mm");
   }
+  if (const std::string problem = targetless.Check(); !problem.empty()) return problem;
   return target.Check();
 }
 
@@ -168,42 +203,87 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
     method = fs::exists(o.scan / "target.yaml") ? ExtrinsicsMethod::kTarget : ExtrinsicsMethod::kTargetless;
   }
   r.method = MethodName(method);
-  if (method == ExtrinsicsMethod::kTargetless) {
-    throw UsageError("--method targetless: not yet available in this build (the scan " + o.scan.string() +
-                     " has no target.yaml; record the target session or pass --method target)");
+  if (method == ExtrinsicsMethod::kTarget && !o.trajectory.empty()) {
+    throw UsageError("--trajectory: applies to --method targetless only (the target method uses stills)");
   }
   core::ScanOptions scan_options;
   scan_options.rig_path = o.rig_path;
   const core::Scan scan = core::Scan::Open(o.scan, scan_options);
   r.rig_in = scan.rig();
-  const core::Target target = core::ReadTarget(o.scan / "target.yaml");
-  calibrate::TargetExtrinsicsResult t;
-  {
-    core::ProgressBar bar("detect", scan.NumFrames(core::Stream::kDepth), "stills", quiet);
-    t = calibrate::EstimateTargetExtrinsics(scan, target, o.target, [&](int done, int) { bar.Set(done); });
-  }
-  r.estimates = {t.thermal, t.rgb};
-  r.detect_seconds = t.detect_seconds;
-  r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
-                                 "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
-                                 t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,
-                                 1e3 * t.sigma_plane_m, 1e3 * t.sigma_cell_m, 1e3 * o.target.plane_cell_m,
-                                 t.depth_model.y()));
   r.rig_out = r.rig_in;
-  r.rig_out.depth_from_thermal = t.thermal.depth_from_camera;
-  r.rig_out.depth_from_rgb = t.rgb.depth_from_camera;
+
+  // The method's estimate and its diagnostic images (name → image, in diagnostics/).
+  std::vector<std::pair<std::string, cv::Mat>> images;
+  std::optional<calibrate::TargetExtrinsicsResult> target_result;
+  std::optional<calibrate::TargetlessResult> targetless_result;
+  if (method == ExtrinsicsMethod::kTarget) {
+    const core::Target target = core::ReadTarget(o.scan / "target.yaml");
+    calibrate::TargetExtrinsicsResult& t = target_result.emplace();
+    {
+      core::ProgressBar bar("detect", scan.NumFrames(core::Stream::kDepth), "stills", quiet);
+      t = calibrate::EstimateTargetExtrinsics(scan, target, o.target, [&](int done, int) { bar.Set(done); });
+    }
+    r.estimates = {t.thermal, t.rgb};
+    r.detect_seconds = t.detect_seconds;
+    r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
+                                   "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
+                                   t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,
+                                   1e3 * t.sigma_plane_m, 1e3 * t.sigma_cell_m, 1e3 * o.target.plane_cell_m,
+                                   t.depth_model.y()));
+    r.rig_out.depth_from_rgb = t.rgb.depth_from_camera;
+    const int stills = static_cast<int>(t.stills.size());
+    images = {{"thermal_residuals.png", ResidualScatter(*r.rig_in.thermal, t.thermal_residuals, stills)},
+              {"rgb_residuals.png", ResidualScatter(*r.rig_in.rgb, t.rgb_residuals, stills)},
+              {"plane_residuals.png", PlaneHistogram(t.plane_residuals, std::hypot(t.sigma_plane_m, t.sigma_cell_m))}};
+  } else {
+    std::optional<core::Trajectory> world_from_depth;
+    if (!o.trajectory.empty()) world_from_depth = core::ReadTumTrajectory(o.trajectory);
+    calibrate::TargetlessResult& t = targetless_result.emplace();
+    {
+      // The number of frames is known once the solver has paired them: the bar starts then.
+      std::unique_ptr<core::ProgressBar> bar;
+      t = calibrate::EstimateTargetlessExtrinsics(scan, world_from_depth, o.targetless, [&](int done, int total) {
+        if (!bar) bar = std::make_unique<core::ProgressBar>("lines", total, "frames", quiet);
+        bar->Set(done);
+      });
+    }
+    r.detect_seconds = 0;  // line extraction and alignment interleave; the bench counts it all
+    r.estimates = {t.estimate};
+    r.notes.push_back(StringPrintf("Frames     %zu thermal frames%s; %d line matches, %.0f %% inliers, robust sigma "
+                                   "%.3f px; occlusion edge offset %+.2f +- %.2f depth px",
+                                   t.frames.size(), t.used_trajectory ? " on the trajectory" : " (nearest depth frames)",
+                                   t.matches, 100 * t.inlier_fraction, t.robust_sigma_px, t.edge_offset_px,
+                                   t.edge_offset_sigma_px));
+    // The frame with the most matches, and the first used one: the fit where it is best
+    // constrained, and an arbitrary one.
+    int best = 0;
+    for (size_t i = 0; i < t.frames.size(); ++i) {
+      if (t.frames[i].matches > t.frames[best].matches) best = static_cast<int>(i);
+    }
+    images = {{"lines_best.png", calibrate::DrawTargetlessDiagnostic(scan, t, best, o.targetless)},
+              {"lines_first.png", calibrate::DrawTargetlessDiagnostic(scan, t, 0, o.targetless)}};
+  }
+  r.rig_out.depth_from_thermal = r.estimates.front().depth_from_camera;
+  const double max_rotation_sigma_deg =
+      o.max_rotation_sigma_deg > 0 ? o.max_rotation_sigma_deg : (method == ExtrinsicsMethod::kTarget ? 0.1 : 0.5);
+  const double max_translation_sigma_mm =
+      o.max_translation_sigma_mm > 0 ? o.max_translation_sigma_mm : (method == ExtrinsicsMethod::kTarget ? 2.0 : 10.0);
   for (const calibrate::ExtrinsicsEstimate& e : r.estimates) {
     r.checks.push_back(calibrate::MakeQaCheck(e.camera + "_rotation_sigma_deg",
                                               e.camera + " rotation uncertainty, largest axis (1 sigma)",
-                                              e.RotationSigmaDeg().maxCoeff(), o.max_rotation_sigma_deg, true, "deg"));
+                                              e.RotationSigmaDeg().maxCoeff(), max_rotation_sigma_deg, true, "deg"));
     r.checks.push_back(calibrate::MakeQaCheck(e.camera + "_translation_sigma_mm",
                                               e.camera + " translation uncertainty, largest axis (1 sigma)",
-                                              e.TranslationSigmaMm().maxCoeff(), o.max_translation_sigma_mm, true, "mm"));
+                                              e.TranslationSigmaMm().maxCoeff(), max_translation_sigma_mm, true, "mm"));
   }
   r.pass = calibrate::AllPass(r.checks);
 
-  const std::vector<std::string> outputs = {"extrinsics.json", "rig.yaml", "diagnostics/thermal_residuals.png",
-                                            "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png"};
+  // Every file either method writes, so that --overwrite also clears the other method's.
+  const std::vector<std::string> outputs = {
+      "extrinsics.json",           "rig.yaml",
+      "diagnostics/thermal_residuals.png", "diagnostics/rgb_residuals.png",
+      "diagnostics/plane_residuals.png",   "diagnostics/lines_best.png",
+      "diagnostics/lines_first.png"};
   core::OutputFolder folder(o.out_folder, "heatwave calibrate extrinsics");
   if (!folder.IsEmpty()) {
     if (!o.overwrite) {
@@ -214,18 +294,17 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
     folder.Remove(outputs);
   }
   fs::create_directories(o.out_folder / "diagnostics");
-  const int stills = static_cast<int>(t.stills.size());
-  core::WriteImageAtomically(o.out_folder / "diagnostics" / "thermal_residuals.png",
-                             ResidualScatter(*r.rig_in.thermal, t.thermal_residuals, stills));
-  core::WriteImageAtomically(o.out_folder / "diagnostics" / "rgb_residuals.png",
-                             ResidualScatter(*r.rig_in.rgb, t.rgb_residuals, stills));
-  core::WriteImageAtomically(o.out_folder / "diagnostics" / "plane_residuals.png",
-                             PlaneHistogram(t.plane_residuals, std::hypot(t.sigma_plane_m, t.sigma_cell_m)));
+  for (const auto& [name, image] : images) {
+    core::WriteImageAtomically(o.out_folder / "diagnostics" / name, image);
+    r.written.push_back("diagnostics/" + name);
+  }
   core::WriteRig(o.out_folder / "rig.yaml", r.rig_out);
-  r.written = {"diagnostics/thermal_residuals.png", "diagnostics/rgb_residuals.png", "diagnostics/plane_residuals.png",
-               "rig.yaml", "extrinsics.json"};
+  r.written.push_back("rig.yaml");
+  r.written.push_back("extrinsics.json");
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  core::WriteFileAtomically(o.out_folder / "extrinsics.json", ExtrinsicsJsonFile(o, r, &t));
+  core::WriteFileAtomically(o.out_folder / "extrinsics.json",
+                            ExtrinsicsJsonFile(o, r, target_result ? &*target_result : nullptr,
+                                               targetless_result ? &*targetless_result : nullptr));
   folder.Commit();
   return r;
 }
@@ -268,12 +347,18 @@ ExtrinsicsSubcommand::ExtrinsicsSubcommand(CLI::App& calibrate) {
       ->check(CLI::IsMember({"auto", "target", "targetless"}))
       ->capture_default_str();
   app_->add_option("--max-rotation-sigma-deg", options_.max_rotation_sigma_deg,
-                   "QA: largest accepted 1-sigma rotation uncertainty about any axis, degrees")
-      ->capture_default_str();
+                   "QA: largest accepted 1-sigma rotation uncertainty about any axis, degrees; default: 0.1 with a "
+                   "target, 0.5 targetless");
   app_->add_option("--max-translation-sigma-mm", options_.max_translation_sigma_mm,
-                   "QA: largest accepted 1-sigma translation uncertainty along any axis, mm")
-      ->capture_default_str();
+                   "QA: largest accepted 1-sigma translation uncertainty along any axis, mm; default: 2 with a "
+                   "target, 10 targetless");
   app_->add_option("--min-stills", options_.target.min_stills, "target: stills needed in each camera")
+      ->capture_default_str();
+  app_->add_option("--trajectory", options_.trajectory,
+                   "targetless: world_from_depth of the scan, TUM format (heatwave reconstruct's trajectory.txt), "
+                   "to bring each depth frame's lines to the thermal frame's time; default: nearest depth frames only");
+  app_->add_option("--max-frames", options_.targetless.max_frames,
+                   "targetless: at most this many thermal frames, evenly spread")
       ->capture_default_str();
 }
 

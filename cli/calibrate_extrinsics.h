@@ -12,6 +12,7 @@
 
 #include "calibrate/extrinsics.h"
 #include "calibrate/extrinsics_target.h"
+#include "calibrate/extrinsics_targetless.h"
 #include "calibrate/qa_profile.h"
 #include "cli/command.h"
 #include "core/rig.h"
@@ -30,10 +31,16 @@ struct ExtrinsicsCommandOptions {
   std::filesystem::path out_folder;  // output folder
   bool overwrite = false;            // replace an earlier extrinsic calibration in out_folder
   ExtrinsicsMethod method = ExtrinsicsMethod::kAuto;
-  // QA: each estimate's largest per-axis 1σ at most these, degrees (0, 90] and mm (0, 1000].
-  double max_rotation_sigma_deg = 0.1;
-  double max_translation_sigma_mm = 2.0;
+  // QA: each estimate's largest per-axis 1σ at most these, degrees (0, 90] and mm (0, 1000];
+  // 0: the method's default — target 0.1° / 2 mm, targetless 0.5° / 10 mm (the issue's
+  // accuracy goals of each method).
+  double max_rotation_sigma_deg = 0;
+  double max_translation_sigma_mm = 0;
   calibrate::TargetExtrinsicsOptions target;  // method target
+  calibrate::TargetlessOptions targetless;    // method targetless
+  // Method targetless: world_from_depth of the scan (TUM, e.g. heatwave reconstruct's
+  // trajectory.txt); "" = pair each thermal frame with the nearest depth frame only.
+  std::filesystem::path trajectory;
 
   // "" or "--flag: must be ..., got ..." (--scan, --out given; the ranges; target.Check()).
   std::string Check() const;
@@ -54,9 +61,9 @@ struct ExtrinsicsCommandResult {
 
 // Estimates and writes out_folder/{extrinsics.json, rig.yaml, diagnostics/...}; the folder
 // is touched only once everything is estimated. Throws core::InputError (scan, rig or
-// target unreadable, too few stills or detections, a degenerate configuration — the
-// method's solver) and UsageError (out_folder not empty without overwrite; the targetless
-// method, not yet available here). A failed QA check is not an error: result.pass.
+// target unreadable, too few stills, detections or lines, a degenerate configuration — the
+// method's solver) and UsageError (out_folder not empty without overwrite; --trajectory
+// with the target method). A failed QA check is not an error: result.pass.
 ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& options, bool quiet);
 
 std::string FormatExtrinsicsSummary(const ExtrinsicsCommandResult& result, const std::filesystem::path& out_folder);
