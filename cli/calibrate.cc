@@ -341,6 +341,16 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
   return r;
 }
 
+std::string FormatQaAndWritten(bool pass, const std::vector<calibrate::QaCheck>& checks,
+                               const std::vector<std::string>& written, const std::filesystem::path& out_folder,
+                               double seconds) {
+  std::string out = StringPrintf("QA         %s\n", pass ? "PASS" : "FAIL");
+  for (const calibrate::QaCheck& q : checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
+  std::string files;
+  for (const std::string& f : written) files += (files.empty() ? "" : ", ") + f;
+  return out + StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), seconds);
+}
+
 std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::path& out_folder) {
   std::string out;
   int accepted = 0;
@@ -382,12 +392,7 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
                             ? " (large: opencv8 misfits the lens, or too few views pin the spline down)"
                             : " (opencv8 would do)");
   }
-  out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
-  for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
-  std::string files;
-  for (const std::string& f : r.written) files += (files.empty() ? "" : ", ") + f;
-  out += StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), r.seconds);
-  return out;
+  return out + FormatQaAndWritten(r.pass, r.checks, r.written, out_folder, r.seconds);
 }
 
 int RunCalibrate(int argc, char** argv) {

@@ -57,6 +57,12 @@ struct IntrinsicsCommandResult {
 // non-empty out_folder without overwrite). A failed QA check is not an error: result.pass.
 IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& options, bool quiet);
 
+// The end of every calibrate command's summary: the QA verdict, each check on its line,
+// and the files written ("Wrote      DIR/{a, b} in 1.2 s").
+std::string FormatQaAndWritten(bool pass, const std::vector<calibrate::QaCheck>& checks,
+                               const std::vector<std::string>& written, const std::filesystem::path& out_folder,
+                               double seconds);
+
 std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& result, const std::filesystem::path& out_folder);
 
 }  // namespace hw::cli

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibrate/diagnostics.h"
+#include "cli/calibrate.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -324,12 +325,7 @@ std::string FormatExtrinsicsSummary(const ExtrinsicsCommandResult& r, const fs::
                         e.residual_unit.c_str());
   }
   out += "           sigmas about / along the depth camera's x, y, z axes\n";
-  out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
-  for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
-  std::string files;
-  for (const std::string& f : r.written) files += (files.empty() ? "" : ", ") + f;
-  out += StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), r.seconds);
-  return out;
+  return out + FormatQaAndWritten(r.pass, r.checks, r.written, out_folder, r.seconds);
 }
 
 ExtrinsicsSubcommand::ExtrinsicsSubcommand(CLI::App& calibrate) {

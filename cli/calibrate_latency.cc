@@ -6,6 +6,7 @@
 #include <memory>
 #include <tuple>
 
+#include "cli/calibrate.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -173,12 +174,7 @@ std::string FormatLatencySummary(const LatencyCommandResult& r, const fs::path& 
                       1e3 * e.thermal_rgb.offset_s, 1e3 * (e.thermal.offset_s - e.rgb.offset_s), 1e3 * e.closure_s,
                       1e3 * e.closure_sigma_s);
   out += "           time_offset_s: t_depth_clock = t_stream + offset; thermal includes the bolometer lag\n";
-  out += StringPrintf("QA         %s\n", r.pass ? "PASS" : "FAIL");
-  for (const calibrate::QaCheck& q : r.checks) out += "  " + calibrate::FormatQaCheck(q) + "\n";
-  std::string files;
-  for (const std::string& f : r.written) files += (files.empty() ? "" : ", ") + f;
-  out += StringPrintf("Wrote      %s/{%s} in %.1f s\n", out_folder.c_str(), files.c_str(), r.seconds);
-  return out;
+  return out + FormatQaAndWritten(r.pass, r.checks, r.written, out_folder, r.seconds);
 }
 
 LatencySubcommand::LatencySubcommand(CLI::App& calibrate) {
