@@ -396,7 +396,7 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
 }
 
 int RunCalibrate(int argc, char** argv) {
-  CLI::App app("Calibrate a camera of the rig from images of a calibration target.", "heatwave calibrate");
+  CLI::App app("Calibrate the rig: intrinsics, extrinsics, clock offsets, or all of them on the bench with a certificate.", "heatwave calibrate");
   app.require_subcommand(1);
   CLI::App* intrinsics = app.add_subcommand(
       "intrinsics", "detect the target, solve the intrinsics (mrcal), check them against a QA profile");

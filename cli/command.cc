@@ -19,7 +19,7 @@ const std::vector<Command>& Commands() {
       {"analyze", RunAnalyze, "find and measure hot and cold spots on a model; render it in the four modes"},
       {"compare", RunCompare, "align two models of one asset and map the temperature change; list spot changes"},
       {"report", RunReport, "write the HTML and PDF report of an audit or analysis folder"},
-      {"calibrate", RunCalibrate, "calibrate the rig: a camera's intrinsics from target images, the streams' clock offsets (QA verdicts)"},
+      {"calibrate", RunCalibrate, "calibrate the rig: intrinsics, extrinsics, clock offsets, the whole bench with a certificate (QA verdicts)"},
       {"eval-trajectory", RunEvalTrajectory,
        "ATE and RPE of a TUM trajectory against a ground truth"},
   };
