@@ -238,7 +238,14 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
               {"plane_residuals.png", PlaneHistogram(t.plane_residuals, std::hypot(t.sigma_plane_m, t.sigma_cell_m))}};
   } else {
     std::optional<core::Trajectory> world_from_depth;
-    if (!o.trajectory.empty()) world_from_depth = core::ReadTumTrajectory(o.trajectory);
+    if (!o.trajectory.empty()) {
+      world_from_depth = core::ReadTumTrajectory(o.trajectory);
+      // Two poses at least to interpolate between; fewer is a bad file, not a bad scan.
+      if (world_from_depth->size() < 2) {
+        throw core::InputError(o.trajectory, "needs at least 2 poses to interpolate, has " +
+                                                 std::to_string(world_from_depth->size()));
+      }
+    }
     calibrate::TargetlessResult& t = targetless_result.emplace();
     {
       // The number of frames is known once the solver has paired them: the bar starts then.
@@ -248,7 +255,6 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
         bar->Set(done);
       });
     }
-    r.detect_seconds = 0;  // line extraction and alignment interleave; the bench counts it all
     r.estimates = {t.estimate};
     r.notes.push_back(StringPrintf("Frames     %zu thermal frames%s; %d line matches, %.0f %% inliers, robust sigma "
                                    "%.3f px; occlusion edge offset %+.2f +- %.2f depth px",

@@ -56,7 +56,7 @@ struct ExtrinsicsCommandResult {
   bool pass = false;
   std::vector<std::string> written;  // files, relative to out_folder
   double seconds = 0;
-  double detect_seconds = 0;  // of which detection (targets or lines), s
+  double detect_seconds = 0;  // of which target detection, s (targetless: 0, its line extraction and fit interleave)
 };
 
 // Estimates and writes out_folder/{extrinsics.json, rig.yaml, diagnostics/...}; the folder

@@ -170,6 +170,15 @@ TEST(CalibrateExtrinsicsCli, TargetlessWithAndWithoutTrajectory) {
   EXPECT_LT(DistanceMm(solved.depth_from_thermal, truth.depth_from_thermal), 20.0);
   EXPECT_EQ(solved.depth_from_rgb.translation, start.depth_from_rgb.translation);
 
+  // An empty trajectory file is the file's error, one line, nothing written.
+  const fs::path empty = folder / "empty-trajectory.txt";
+  hw::core::WriteFileAtomically(empty, "");
+  r = Heatwave(base + " -q --trajectory " + empty.string() + " --out " + (folder / "out-empty").string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(empty.string() + ": needs at least 2 poses"), std::string::npos) << r.output;
+  EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
+  EXPECT_FALSE(fs::exists(folder / "out-empty"));
+
   // Without a trajectory: each thermal frame with a depth frame within 10 ms only — 6 of
   // this session's 27 — so the translation's σ (~17 mm) fails the method's default QA
   // (10 mm): written, FAIL, exit 1; the estimate itself is still near the truth.
