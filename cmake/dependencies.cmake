@@ -30,6 +30,9 @@ find_package(absl REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(apriltag REQUIRED IMPORTED_TARGET apriltag>=3.3)
 pkg_check_modules(libusb REQUIRED IMPORTED_TARGET libusb-1.0>=1.0.26)
+# capture/: libuvc streams the thermal camera (USB video class, Y16 frames); Debian's
+# libuvc-dev ships a pkg-config file.
+pkg_check_modules(libuvc REQUIRED IMPORTED_TARGET libuvc>=0.0.6)
 pkg_check_modules(cairo REQUIRED IMPORTED_TARGET cairo>=1.16 cairo-pdf)
 pkg_check_modules(pangocairo REQUIRED IMPORTED_TARGET pangocairo>=1.50)
 # CHOLMOD (SuiteSparse, a dependency of mrcal): calibrate/ reads the sparse Jacobian that

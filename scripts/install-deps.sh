@@ -20,7 +20,7 @@ packages=(
   # Debian's OpenImageIO CMake config names these files; find_package fails without them
   openimageio-tools python3-imath
   # capture
-  libopenni2-dev libusb-1.0-0-dev
+  libopenni2-dev libusb-1.0-0-dev libuvc-dev
   # reconstruct: the TSDF's block hash (absl::flat_hash_map)
   libabsl-dev
   # report: PDF and images (Cairo + Pango), analyze.json / reconstruct.json reading,
