@@ -3,6 +3,8 @@
 #include <libusb.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <system_error>
 
 #include "core/strings.h"
 
@@ -71,6 +73,12 @@ std::string LibusbError(const char* call, int code) {
 
 }  // namespace
 
+std::string UsbAccessProblem() {
+  std::error_code ignored;
+  if (std::filesystem::exists("/dev/bus/usb", ignored)) return "";
+  return "/dev/bus/usb does not exist: this system or container exposes no USB devices";
+}
+
 std::vector<UsbDevice> ListUsbDevices(std::string* error) {
   if (error != nullptr) error->clear();
   std::vector<UsbDevice> devices;
@@ -79,7 +87,8 @@ std::vector<UsbDevice> ListUsbDevices(std::string* error) {
   libusb_set_option(nullptr, LIBUSB_OPTION_LOG_LEVEL, LIBUSB_LOG_LEVEL_NONE);
   if (const int code = libusb_init(&context); code != 0) {
     if (error != nullptr) {
-      *error = LibusbError("libusb_init", code) + " (no USB device access here: /dev/bus/usb missing?)";
+      const std::string hint = UsbAccessProblem();
+      *error = LibusbError("libusb_init", code) + (hint.empty() ? "" : " (" + hint + ")");
     }
     return devices;
   }
@@ -113,6 +122,8 @@ std::vector<UsbDevice> ListUsbDevices(std::string* error) {
   }
   libusb_free_device_list(list, 1);
   libusb_exit(context);
+  // Debian's libusb (udev-based) starts even without usbfs and lists nothing: say why.
+  if (devices.empty() && error != nullptr) *error = UsbAccessProblem();
   std::sort(devices.begin(), devices.end(), [](const UsbDevice& a, const UsbDevice& b) {
     return a.bus != b.bus ? a.bus < b.bus : a.address < b.address;
   });

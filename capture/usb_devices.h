@@ -52,10 +52,14 @@ struct UsbDevice {
 };
 
 // Every device on every USB bus, through libusb, in bus/address order. Never throws and
-// never aborts: when libusb cannot start (a container without /dev/bus/usb, no usbfs) or
-// cannot list devices, returns an empty list and, when `error` is not null, sets *error to
-// the reason ("" on success).
+// never aborts: when libusb cannot start or cannot list devices, or the host has no usbfs
+// (a container without /dev/bus/usb), returns an empty list and, when `error` is not null,
+// sets *error to the reason ("" otherwise, including an empty list on a host with USB).
 std::vector<UsbDevice> ListUsbDevices(std::string* error = nullptr);
+
+// "" when the host has a usbfs (/dev/bus/usb), else the reason no USB device can be seen
+// (e.g. a container started without USB passthrough). Linux.
+std::string UsbAccessProblem();
 
 // "bus 001 device 004: 1e4e:0100 GroupGets PureThermal (serial 8011...) [thermal: FLIR
 // Lepton on GroupGets PureThermal]" (one line).

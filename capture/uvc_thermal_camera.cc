@@ -106,6 +106,26 @@ struct Y16Frame {
   uint32_t interval_100ns = 0;  // the frame's default interval
 };
 
+// Whether the Lepton behind a PureThermal streams centikelvin: TLinear enabled with 0.01 K
+// resolution. PureThermal firmware exposes the Lepton CCI attributes as UVC extension-unit
+// controls, unit 5 = RAD module (RAD_UNIT_ID in groupgets/purethermal1-uvc-capture
+// uvctypes.py), selector = (command offset >> 2) + 1 (usbd_uvc.c of
+// groupgets/purethermal1-firmware maps GET_CUR of selector cs to offset (cs - 1) << 2);
+// Lepton SDK LEP_CID_RAD_TLINEAR_ENABLE_STATE = RAD base + 0xC0 -> 49, _RESOLUTION = + 0xC4
+// -> 50 (LEP_RAD_RESOLUTION_0_01 = 1). 4-byte little-endian values. A non-radiometric
+// Lepton (the firmware answers zeros) or a failed request gives false.
+bool PureThermalReportsCentikelvin(uvc_device_handle_t* handle) {
+  constexpr uint8_t kRadUnit = 5, kTLinearEnable = 49, kTLinearResolution = 50;
+  const auto get = [handle](uint8_t selector, uint32_t* value) {
+    uint8_t bytes[4] = {};
+    if (uvc_get_ctrl(handle, kRadUnit, selector, bytes, 4, UVC_GET_CUR) != 4) return false;
+    *value = bytes[0] | bytes[1] << 8 | bytes[2] << 16 | static_cast<uint32_t>(bytes[3]) << 24;
+    return true;
+  };
+  uint32_t enabled = 0, resolution = 0;
+  return get(kTLinearEnable, &enabled) && enabled == 1 && get(kTLinearResolution, &resolution) && resolution == 1;
+}
+
 bool IsY16(const uvc_format_desc_t* format) {
   return format->bDescriptorSubtype == UVC_VS_FORMAT_UNCOMPRESSED &&
          std::memcmp(format->guidFormat, "Y16 ", 4) == 0;
@@ -142,9 +162,11 @@ UvcThermalCamera::UvcThermalCamera(uint16_t vendor_id, uint16_t product_id, cons
           uvc_find_device(context_, &device_, vendor_id, product_id, serial.empty() ? nullptr : serial.c_str());
       code < 0) {
     device_ = nullptr;
-    fail(code == UVC_ERROR_NO_DEVICE
-             ? "not found on USB" + (serial.empty() ? std::string() : " with serial " + serial)
-             : UvcError("uvc_find_device", code));
+    std::string reason = code == UVC_ERROR_NO_DEVICE
+                             ? "not found on USB" + (serial.empty() ? std::string() : " with serial " + serial)
+                             : UvcError("uvc_find_device", code);
+    if (const std::string hint = UsbAccessProblem(); !hint.empty()) reason += " (" + hint + ")";
+    fail(reason);
   }
   if (const uvc_error_t code = uvc_open(device_, &handle_); code < 0) {
     handle_ = nullptr;
@@ -156,7 +178,8 @@ UvcThermalCamera::UvcThermalCamera(uint16_t vendor_id, uint16_t product_id, cons
     if (!known && descriptor->product != nullptr) info_.name = core::OneLineMessage(descriptor->product);
     uvc_free_device_descriptor(descriptor);
   }
-  info_.radiometric = known && known->vendor_id == 0x1e4e;  // Lepton's Y16 defaults to TLinear
+  is_pure_thermal_ = known && known->telemetry;
+  if (is_pure_thermal_) info_.radiometric = PureThermalReportsCentikelvin(handle_);
 
   // Every Y16 frame size the camera offers.
   std::vector<Y16Frame> frames;
@@ -218,6 +241,9 @@ void UvcThermalCamera::Start(FrameCallback on_frame) {
     throw core::InputError(DeviceName(), UvcError("uvc_start_streaming", code));
   }
   streaming_ = true;
+  // The PureThermal firmware keeps the Lepton in low power while no stream runs, when its
+  // attributes may read as zeros: ask again now that it streams.
+  if (is_pure_thermal_ && !info_.radiometric) info_.radiometric = PureThermalReportsCentikelvin(handle_);
 }
 
 void UvcThermalCamera::Stop() {
@@ -237,44 +263,55 @@ void UvcThermalCamera::OnUvcFrame(uvc_frame* frame, void* self) {
   static_cast<UvcThermalCamera*>(self)->HandleFrame(frame, arrival_s);
 }
 
-void UvcThermalCamera::HandleFrame(uvc_frame* frame, double arrival_s) {
-  const size_t row_bytes = static_cast<size_t>(info_.width) * 2;
-  const size_t step = frame->step >= row_bytes ? frame->step : row_bytes;
-  if (frame->data == nullptr || static_cast<int>(frame->width) != info_.width ||
-      static_cast<int>(frame->height) != wire_height_ ||
-      frame->data_bytes < step * static_cast<size_t>(wire_height_ - 1) + row_bytes) {
-    std::lock_guard lock(stats_mutex_);
-    ++short_frames_;
-    return;
-  }
-  const auto* bytes = static_cast<const uint8_t*>(frame->data);
+std::optional<ThermalFrame> DecodeY16Frame(const uint8_t* data, size_t data_bytes, size_t step_bytes, int width,
+                                           int image_height, int telemetry_rows) {
+  assert(width > 0 && image_height > 0 && telemetry_rows >= 0);
+  const size_t row_bytes = static_cast<size_t>(width) * 2;
+  const size_t step = step_bytes >= row_bytes ? step_bytes : row_bytes;
+  const int rows = image_height + telemetry_rows;
+  if (data == nullptr || data_bytes < step * static_cast<size_t>(rows - 1) + row_bytes) return std::nullopt;
   ThermalFrame out;
-  out.arrival_s = arrival_s;
-  out.raw.create(info_.height, info_.width, CV_16UC1);
-  for (int y = 0; y < info_.height; ++y) std::memcpy(out.raw.ptr(y), bytes + step * y, row_bytes);
-  if constexpr (std::endian::native == std::endian::big) {
-    // UVC Y16 is little-endian on the wire.
-    for (int y = 0; y < info_.height; ++y) {
-      auto* row = out.raw.ptr<uint16_t>(y);
-      for (int x = 0; x < info_.width; ++x) row[x] = static_cast<uint16_t>(row[x] << 8 | row[x] >> 8);
+  out.raw.create(image_height, width, CV_16UC1);
+  for (int y = 0; y < image_height; ++y) {
+    const uint8_t* p = data + step * y;
+    auto* row = out.raw.ptr<uint16_t>(y);
+    if constexpr (std::endian::native == std::endian::little) {
+      std::memcpy(row, p, row_bytes);
+    } else {
+      for (int x = 0; x < width; ++x) row[x] = static_cast<uint16_t>(p[2 * x] | p[2 * x + 1] << 8);
     }
   }
-  if (telemetry_rows_ > 0 && row_bytes * telemetry_rows_ >= kLeptonTelemetryRowWords * 2) {
-    // Row A starts the first row after the image (telemetry as a footer).
+  if (row_bytes * telemetry_rows >= kLeptonTelemetryRowWords * 2) {
+    // Row A starts the first row after the image (telemetry as a footer); it spans wire
+    // rows when they are narrower than 80 px.
     uint16_t words[kLeptonTelemetryRowWords];
-    const uint8_t* row_a = bytes + step * info_.height;
+    const uint8_t* row_a = data + step * image_height;
     for (int i = 0; i < kLeptonTelemetryRowWords; ++i) {
-      // Row A may span two wire rows on an 80-wide (Lepton 2) frame.
       const size_t offset = static_cast<size_t>(2 * i);
       const uint8_t* p = row_a + (offset / row_bytes) * step + offset % row_bytes;
-      words[i] = static_cast<uint16_t>(p[0] | p[1] << 8);
+      words[i] = static_cast<uint16_t>(p[0] | p[1] << 8);  // Y16 is little-endian
     }
     if (const std::optional<LeptonTelemetry> t = ParseLeptonTelemetryRowA(words)) {
       out.camera_frame_counter = t->frame_counter;
       out.ffc_in_progress = t->ffc_in_progress;
     }
   }
-  on_frame_(std::move(out));
+  return out;
+}
+
+void UvcThermalCamera::HandleFrame(uvc_frame* frame, double arrival_s) {
+  std::optional<ThermalFrame> out;
+  if (static_cast<int>(frame->width) == info_.width && static_cast<int>(frame->height) == wire_height_) {
+    out = DecodeY16Frame(static_cast<const uint8_t*>(frame->data), frame->data_bytes, frame->step, info_.width,
+                         info_.height, telemetry_rows_);
+  }
+  if (!out) {
+    std::lock_guard lock(stats_mutex_);
+    ++short_frames_;
+    return;
+  }
+  out->arrival_s = arrival_s;
+  on_frame_(std::move(*out));
 }
 
 // ---------------------------------------------------------------- factory
@@ -303,7 +340,7 @@ std::unique_ptr<ThermalCamera> OpenThermalCamera(const std::string& spec) {
     looked_for += (looked_for.empty() ? "" : ", ") + camera.name + " " + UsbIdString(camera.vendor_id, camera.product_id);
   }
   std::string reason = "no thermal camera found on USB (looked for: " + looked_for + ")";
-  if (!usb_error.empty()) reason += "; USB could not be listed: " + usb_error;
+  if (!usb_error.empty()) reason += "; " + usb_error;
   throw core::InputError("thermal camera", reason);
 }
 

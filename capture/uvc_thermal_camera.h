@@ -3,6 +3,7 @@
 // A real thermal camera over the USB video class (libuvc): FLIR Lepton on a PureThermal
 // board, FLIR Boson, or any UVC camera streaming Y16 (16-bit raw) frames.
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -40,6 +41,14 @@ inline constexpr int kLeptonTelemetryRowWords = 80;
 // nullopt for an all-zero row (no telemetry: the camera had it disabled).
 std::optional<LeptonTelemetry> ParseLeptonTelemetryRowA(const uint16_t* words);
 
+// Decodes one Y16 frame as the camera sends it: (image_height + telemetry_rows) rows of
+// `width` little-endian 16-bit pixels, `step_bytes` apart (0 or less than width * 2 =
+// packed). The image rows become ThermalFrame::raw; when the telemetry rows hold at least
+// 80 words, their first 80 are Lepton telemetry row A (frame counter, FFC state). Returns
+// nullopt when data_bytes is too short (a truncated transfer). arrival_s is left 0.
+std::optional<ThermalFrame> DecodeY16Frame(const uint8_t* data, size_t data_bytes, size_t step_bytes, int width,
+                                           int image_height, int telemetry_rows);
+
 // Which camera a --thermal option names: "auto" (the first known thermal camera on USB),
 // "fake" (FakeThermalCamera with default options), or "VID:PID[:SERIAL]" with 4-digit hex
 // ids, e.g. "1e4e:0100".
@@ -57,10 +66,14 @@ ThermalDeviceSpec ParseThermalDeviceSpec(const std::string& spec);
 class UvcThermalCamera : public ThermalCamera {
  public:
   // Opens the UVC device with these ids (and serial, when not ""), and picks its Y16
-  // stream: the largest Y16 frame size; on a camera offering Lepton telemetry (a Y16 frame
-  // 2-3 rows taller than another of the same width) and when `telemetry`, that taller
-  // frame, whose extra rows are parsed (frame counter, FFC state) and cut off. The frame
-  // rate is the frame's default interval. Throws core::InputError("usb VID:PID", reason)
+  // stream: the largest Y16 frame size, except that a frame 2-3 rows taller than another
+  // of the same width is that image plus telemetry rows: on a PureThermal (Lepton) and
+  // when `telemetry`, the taller frame is streamed and its extra rows parsed (frame
+  // counter, FFC state) and cut off; otherwise the shorter frame is streamed. The frame
+  // rate is the frame's default interval. Info().radiometric: a PureThermal whose Lepton
+  // reports TLinear on at 0.01 K resolution (queried over the board's extension unit at
+  // open, and again by Start when that said no: the firmware may keep the Lepton in low
+  // power until a stream starts); false for other cameras (not queried). Throws core::InputError("usb VID:PID", reason)
   // when libuvc cannot start, the device is absent, cannot be opened (permissions: the
   // reason says so) or streams no Y16; the reason carries libuvc's uvc_strerror.
   UvcThermalCamera(uint16_t vendor_id, uint16_t product_id, const std::string& serial = "",
@@ -92,6 +105,7 @@ class UvcThermalCamera : public ThermalCamera {
   std::unique_ptr<StreamControl> control_;
   int wire_height_ = 0;      // rows on the wire: info_.height + telemetry rows
   int telemetry_rows_ = 0;
+  bool is_pure_thermal_ = false;
   bool streaming_ = false;
   FrameCallback on_frame_;
   mutable std::mutex stats_mutex_;
@@ -103,8 +117,8 @@ class UvcThermalCamera : public ThermalCamera {
 // ListUsbDevices that is a KnownThermalCamera (KnownThermalCameras order). Throws
 // std::invalid_argument for a malformed spec, core::InputError when the camera cannot be
 // opened, and for "auto" with none attached: "thermal camera: no thermal camera found on
-// USB (looked for: <each known camera and ids>)" plus libusb's reason when USB could not
-// be listed at all.
+// USB (looked for: <each known camera and ids>)", plus "; <reason>" when USB could not be
+// listed at all (libusb failure, no /dev/bus/usb).
 std::unique_ptr<ThermalCamera> OpenThermalCamera(const std::string& spec);
 
 }  // namespace hw::capture
