@@ -329,10 +329,18 @@ std::unique_ptr<ThermalCamera> OpenThermalCamera(const std::string& spec) {
   std::string usb_error;
   const std::vector<UsbDevice> devices = ListUsbDevices(&usb_error);
   for (const KnownThermalCamera& camera : KnownThermalCameras()) {
+    const UsbDevice* first = nullptr;
+    int count = 0;
     for (const UsbDevice& device : devices) {
       if (device.vendor_id == camera.vendor_id && device.product_id == camera.product_id) {
-        return std::make_unique<UvcThermalCamera>(device.vendor_id, device.product_id, device.serial);
+        if (first == nullptr) first = &device;
+        ++count;
       }
+    }
+    // The serial picks one of several identical cameras; with one, any serial matches (and
+    // a serial libusb could not read must not exclude it).
+    if (first != nullptr) {
+      return std::make_unique<UvcThermalCamera>(first->vendor_id, first->product_id, count > 1 ? first->serial : "");
     }
   }
   std::string looked_for;
