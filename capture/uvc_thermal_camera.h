@@ -19,10 +19,13 @@ struct uvc_frame;
 
 namespace hw::capture {
 
-// Lepton telemetry row A (FLIR Lepton engineering datasheet, "Telemetry modes"; layout as
-// groupgets/purethermal1-firmware Inc/lepton.h telemetry_data_l3 and flirpy's
-// Lepton.decode_telemetry read it). Words are 16-bit; a 32-bit field is two words, least
-// significant first:
+// Lepton telemetry row A (FLIR Lepton engineering datasheet, "Telemetry modes"). The
+// layout here is the one four independent implementations agree on (the datasheet itself
+// was not at hand): groupgets/purethermal1-firmware Inc/lepton.h telemetry_data_l3 (and
+// its lepton_task.c reading frame_counter[1] << 16 | frame_counter[0]), flirpy's
+// Lepton.decode_telemetry on PureThermal footer rows, leptonic's telemetry.c and the
+// Cacophony Project's Lepton reader (FFC state = status bits 5:4, 0b10 = in progress).
+// Words are 16-bit; a 32-bit field is two words, least significant first:
 //   word 0 revision, 1-2 uptime ms, 3-4 status bits (FFC desired bit 3, FFC state bits 5:4
 //   = 0 never commanded, 1 imminent, 2 in progress, 3 complete), 20-21 frame counter,
 //   24 FPA temperature (centikelvin), 30-31 uptime ms at the last FFC.
