@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "core/output_folder.h"
 #include "core/strings.h"
 
 namespace hw::cli {
@@ -20,6 +21,9 @@ const std::vector<Command>& Commands() {
       {"compare", RunCompare, "align two models of one asset and map the temperature change; list spot changes"},
       {"report", RunReport, "write the HTML and PDF report of an audit or analysis folder"},
       {"calibrate", RunCalibrate, "calibrate the rig: intrinsics, extrinsics, clock offsets, the whole bench with a certificate (QA verdicts)"},
+      {"devices", RunDevices, "list connected RGB-D devices (OpenNI2) and USB thermal cameras with what each supports"},
+      {"capture", RunCapture, "record a scan folder from a live rig: OpenNI2 depth and colour, USB radiometric thermal"},
+      {"import-oni", RunImportOni, "convert an OpenNI2 recording (.oni) into a scan folder"},
       {"eval-trajectory", RunEvalTrajectory,
        "ATE and RPE of a TUM trajectory against a ground truth"},
   };
@@ -114,6 +118,30 @@ int RunVersion(int argc, char** argv) {
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   std::cout << "heatwave " << HW_VERSION << "\n";
   return kExitOk;
+}
+
+const std::vector<std::string>& ScanFolderEntries() {
+  static const std::vector<std::string> entries = {
+      "rig.yaml",    "depth.txt", "rgb.txt", "thermal.txt", "ffc.txt", "groundtruth.txt",
+      "target.yaml", "depth",     "rgb",     "thermal",     "truth"};
+  return entries;
+}
+
+std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const std::filesystem::path& out, bool overwrite,
+                                                        const std::string& description,
+                                                        const std::vector<std::string>& entries) {
+  std::error_code ec;
+  if (std::filesystem::exists(out, ec) && !std::filesystem::is_directory(out, ec)) {
+    throw UsageError("--out " + out.string() + ": exists and is not a folder");
+  }
+  auto folder = std::make_unique<core::OutputFolder>(out, description);
+  if (folder->IsEmpty()) return folder;
+  if (!overwrite) {
+    folder->Abandon();
+    throw UsageError("--out " + out.string() + ": folder is not empty; pass --overwrite to replace what is in it");
+  }
+  folder->Remove(entries);
+  return folder;
 }
 
 }  // namespace hw::cli

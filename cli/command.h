@@ -1,6 +1,8 @@
 #pragma once
 
+#include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -11,6 +13,10 @@
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <CLI/CLI.hpp>
 #pragma GCC diagnostic pop
+
+namespace hw::core {
+class OutputFolder;
+}
 
 namespace hw::cli {
 
@@ -63,6 +69,19 @@ struct UsageError : std::runtime_error {
 void ThrowIfInvalid(const std::string& message, const std::string& prefix = "");
 
 // The commands; each parses its options and calls a typed function tests call directly.
+// What a scan folder holds (scan-format.md, plus the sessions' target.yaml): what
+// --overwrite removes. Anything else in the folder is left alone.
+const std::vector<std::string>& ScanFolderEntries();
+
+// Takes the output folder for this run (one run at a time: core/output_folder.h), refuses
+// a non-empty one unless overwrite (UsageError), and with overwrite removes `entries` of the
+// earlier output — every frame folder whole, indexed or not — so that no stale frame or
+// truth file survives. The folder stays marked incomplete until Commit(). `description`
+// names the run ("heatwave capture").
+std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const std::filesystem::path& out, bool overwrite,
+                                                        const std::string& description,
+                                                        const std::vector<std::string>& entries = ScanFolderEntries());
+
 int RunHelp(int argc, char** argv);
 int RunVersion(int argc, char** argv);
 int RunScanInfo(int argc, char** argv);
@@ -75,5 +94,8 @@ int RunReport(int argc, char** argv);
 int RunDemo(int argc, char** argv);
 int RunCalibrate(int argc, char** argv);
 int RunEvalTrajectory(int argc, char** argv);
+int RunDevices(int argc, char** argv);
+int RunCapture(int argc, char** argv);
+int RunImportOni(int argc, char** argv);
 
 }  // namespace hw::cli

@@ -46,15 +46,6 @@ std::string FormatBytes(uint64_t bytes) {
   return core::StringPrintf("%llu B", static_cast<unsigned long long>(bytes));
 }
 
-// What a scan folder holds (scan-format.md, plus the sessions' target.yaml): removed by
-// --overwrite. Anything else in the folder is left alone.
-const std::vector<std::string>& ScanEntries() {
-  static const std::vector<std::string> entries = {
-      "rig.yaml",    "depth.txt", "rgb.txt", "thermal.txt", "ffc.txt", "groundtruth.txt",
-      "target.yaml", "depth",     "rgb",     "thermal",     "truth"};
-  return entries;
-}
-
 // What a bench session folder holds (fixtures/bench_session.h): removed by --overwrite.
 std::vector<std::string> BenchEntries() {
   std::vector<std::string> entries = {"rig.yaml", "session.yaml", "truth"};
@@ -64,25 +55,9 @@ std::vector<std::string> BenchEntries() {
   return entries;
 }
 
-// Takes the output folder for this run (one run at a time: core/output_folder.h), refuses
-// a non-empty one unless overwrite, and with overwrite removes the scan entries of the
-// earlier scan — every frame folder whole, indexed or not — so that no stale frame or truth
-// file survives. The folder stays marked incomplete until Commit().
 std::unique_ptr<core::OutputFolder> PrepareOutputFolder(const fs::path& out, bool overwrite,
-                                                        const std::vector<std::string>& entries = ScanEntries()) {
-  std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
-    throw UsageError("--out " + out.string() + ": exists and is not a folder");
-  }
-  auto folder = std::make_unique<core::OutputFolder>(out, "heatwave synth");
-  if (folder->IsEmpty()) return folder;
-  if (!overwrite) {
-    folder->Abandon();
-    throw UsageError("--out " + out.string() +
-                     ": folder is not empty; pass --overwrite to replace the scan in it");
-  }
-  folder->Remove(entries);
-  return folder;
+                                                        const std::vector<std::string>& entries = ScanFolderEntries()) {
+  return hw::cli::PrepareOutputFolder(out, overwrite, "heatwave synth", entries);
 }
 
 // --seed, --rig-seed: a whole number in [0, 2^64 - 1]. CLI11 reads "-1" as 2^64 - 1 and

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cassert>
 #include <cstring>
 #include <mutex>
 
@@ -21,7 +22,15 @@ struct Slot {
 Slot g_slots[kMaxRegisteredPaths];
 static_assert(std::atomic<int>::is_always_lock_free, "the signal handler needs lock-free atomics");
 
+// StopOnInterrupt: 0 = not active, 1 = active and no signal yet, 2 = a signal asked to stop.
+std::atomic<int> g_stop_state{0};
+static_assert(std::atomic<int>::is_always_lock_free);
+
 void HandleSignal(int signal_number) {
+  if (signal_number != SIGHUP) {
+    int expected = 1;
+    if (g_stop_state.compare_exchange_strong(expected, 2)) return;  // the job stops itself
+  }
   for (Slot& slot : g_slots) {
     if (slot.state.load(std::memory_order_acquire) == kActive) ::unlink(slot.path);
   }
@@ -71,6 +80,22 @@ RemoveOnInterrupt::RemoveOnInterrupt(const std::filesystem::path& path) {
 
 RemoveOnInterrupt::~RemoveOnInterrupt() {
   if (slot_ >= 0) g_slots[slot_].state.store(kFree, std::memory_order_release);
+}
+
+StopOnInterrupt::StopOnInterrupt() {
+  int expected = 0;
+  const bool first = g_stop_state.compare_exchange_strong(expected, 1);
+  assert(first && "one StopOnInterrupt at a time");
+  (void)first;
+}
+
+StopOnInterrupt::~StopOnInterrupt() { g_stop_state.store(0); }
+
+bool StopOnInterrupt::StopRequested() { return g_stop_state.load() == 2; }
+
+void StopOnInterrupt::RequestStop() {
+  int expected = 1;
+  g_stop_state.compare_exchange_strong(expected, 2);
 }
 
 int NumPathsRegisteredForInterrupt() {

@@ -33,4 +33,22 @@ inline constexpr int kMaxRegisteredPaths = 256;
 // How many paths are registered now (tests).
 int NumPathsRegisteredForInterrupt();
 
+// While one lives, the first SIGINT or SIGTERM does not end the process: it only sets a flag
+// that StopRequested() returns, so that a job that runs until the user stops it (capture)
+// can finish its files and exit normally. A second signal acts as without it (temporaries
+// removed, process ends by the signal): a stuck job can still be interrupted. SIGHUP is
+// unaffected. Needs InstallInterruptHandlers(). One at a time (asserted).
+class StopOnInterrupt {
+ public:
+  StopOnInterrupt();
+  ~StopOnInterrupt();
+  StopOnInterrupt(const StopOnInterrupt&) = delete;
+  StopOnInterrupt& operator=(const StopOnInterrupt&) = delete;
+
+  // True once a signal arrived (async-signal-safe read of an atomic).
+  static bool StopRequested();
+  // Sets the flag as a signal would (tests, and callers with their own stop condition).
+  static void RequestStop();
+};
+
 }  // namespace hw::core
