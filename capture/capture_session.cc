@@ -230,8 +230,8 @@ CaptureSummary Capture(OpenNiSource* rgbd, ThermalCamera* thermal, const core::R
     }
   });
 
-  // RGB-D reader. The streams start on the calling thread (see the test of two captures in
-  // one process).
+  // RGB-D reader. The streams start on the calling thread (capture/openni_source.h: a start
+  // from a short-lived thread crashed OpenNI2 on the second capture of a process).
   std::thread rgbd_thread;
   if (rgbd != nullptr) {
     try {

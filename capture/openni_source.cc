@@ -155,11 +155,11 @@ struct OpenNiSource::Impl {
   std::unique_ptr<openni::Recorder> recorder;
 
   ~Impl() {
+    StopStreams();  // before the recorder: see StopRecording()
     if (recorder) {
       recorder->stop();
       recorder->destroy();
     }
-    StopStreams();
     // Only now may the driver free them (see the header: DummyDevice's threads).
     depth.destroy();
     if (has_color) color.destroy();
@@ -278,6 +278,13 @@ std::unique_ptr<OpenNiSource> OpenNiSource::OpenDevice(const std::string& uri, c
       throw core::InputError(where, "could not create the colour stream: " + ExtendedError());
     impl->has_color = true;
   }
+  // Frames as the camera sees them: OpenNI2 viewers often leave mirroring on, and a
+  // registered (depth-to-colour warped) depth image is not the depth camera's any more.
+  // Both are device settings that persist; drivers without them refuse, which is fine.
+  impl->depth.setMirroringEnabled(false);
+  if (impl->has_color) impl->color.setMirroringEnabled(false);
+  if (impl->device.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR))
+    impl->device.setImageRegistrationMode(openni::IMAGE_REGISTRATION_OFF);
   return std::unique_ptr<OpenNiSource>(new OpenNiSource(std::move(impl)));
 }
 
@@ -393,6 +400,7 @@ void OpenNiSource::StartRecording(const std::filesystem::path& oni_path, bool lo
 
 void OpenNiSource::StopRecording() {
   if (!impl_->recorder) return;
+  impl_->StopStreams();
   impl_->recorder->stop();
   impl_->recorder->destroy();  // joins the recorder's thread, which writes the seek tables
   impl_->recorder.reset();

@@ -27,6 +27,10 @@ namespace hw::capture {
 //   has no cropping record (the Recorder writes one only for drivers that implement the
 //   cropping property; DummyDevice does not). Playback here always waits with a timeout,
 //   checks the cropping property up front, and turns either case into an InputError.
+// And one observed without a root cause (libOpenNI2 has no symbols): a stream started from
+// a thread created after an earlier session's reading thread had ended crashed in
+// oniStreamStart (SIGSEGV; two captures in one process). Start() belongs on the thread
+// that owns the source; Capture() starts streams on its calling thread.
 
 inline constexpr double kStreamQuiesceS = 0.1;
 
@@ -100,7 +104,10 @@ class OpenNiSource {
   // Records what the streams deliver, from now on, into `oni_path` through OpenNI2's
   // Recorder (depth lossless; colour lossless unless lossy_color). Throws InputError.
   void StartRecording(const std::filesystem::path& oni_path, bool lossy_color = false);
-  // Flushes and closes the recording. Idempotent.
+  // Stops the streams (as Stop()), then flushes and closes the recording. Idempotent.
+  // The streams go first because OpenNI2's Recorder deadlocked when destroyed while a
+  // driver thread was delivering a frame (DummyDevice, about one run in three: the
+  // recorder's thread spinning, the caller and the driver thread blocked on its locks).
   void StopRecording();
 
   struct Impl;
