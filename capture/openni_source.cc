@@ -171,7 +171,9 @@ struct OpenNiSource::Impl {
     started = false;
     depth.stop();
     if (has_color) color.stop();
-    if (!is_file) std::this_thread::sleep_for(std::chrono::duration<double>(kStreamQuiesceS));
+    // Live: let DummyDevice-like producer threads see their flag. Recording: let the
+    // player thread go from spinning over its stream list to sleeping between checks.
+    std::this_thread::sleep_for(std::chrono::duration<double>(is_file ? kPlayerQuiesceS : kStreamQuiesceS));
   }
 
   // Converts one read frame. Throws InputError for a format we cannot store.

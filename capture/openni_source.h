@@ -27,12 +27,19 @@ namespace hw::capture {
 //   has no cropping record (the Recorder writes one only for drivers that implement the
 //   cropping property; DummyDevice does not). Playback here always waits with a timeout,
 //   checks the cropping property up front, and turns either case into an InputError.
+// - Playback teardown: the player thread (PlayerDevice::MainLoop) walks its stream list
+//   without its lock, at full speed once the file has ended, while destroying a stream
+//   removes it from that list without the lock: destroying the streams of a finished
+//   playback crashed about one run in fifteen under load. Streams are stopped first; the
+//   thread then only checks the list every 10 ms (sleeping between), and the streams are
+//   destroyed kPlayerQuiesceS later, inside such a sleep.
 // And one observed without a root cause (libOpenNI2 has no symbols): a stream started from
 // a thread created after an earlier session's reading thread had ended crashed in
 // oniStreamStart (SIGSEGV; two captures in one process). Start() belongs on the thread
 // that owns the source; Capture() starts streams on its calling thread.
 
 inline constexpr double kStreamQuiesceS = 0.1;
+inline constexpr double kPlayerQuiesceS = 0.035;
 
 struct RgbdStreamMode {
   std::string sensor;        // "depth" | "color" | "ir"
