@@ -23,8 +23,8 @@ namespace hw::capture {
 
 std::string CaptureOptions::Check() const {
   if (!(duration_s >= 0) || !std::isfinite(duration_s))
-    return core::StringPrintf("duration_s %g must be finite and >= 0", duration_s);
-  if (max_queued_frames < 1) return core::StringPrintf("max_queued_frames %d must be >= 1", max_queued_frames);
+    return core::StringPrintf("duration_s (--duration) %g must be finite and >= 0", duration_s);
+  if (max_queued_frames < 1) return core::StringPrintf("max_queued_frames (--queue) %d must be >= 1", max_queued_frames);
   if (!(index_every_s > 0) || !std::isfinite(index_every_s))
     return core::StringPrintf("index_every_s %g must be finite and > 0", index_every_s);
   return "";

@@ -88,7 +88,7 @@ std::string CaptureCommandOptions::Check() const {
       return std::string("thermal_device (--thermal): ") + e.what();
     }
   }
-  if (std::string c = capture.Check(); !c.empty()) return "capture." + c;
+  if (std::string c = capture.Check(); !c.empty()) return c;
   return "";
 }
 
@@ -117,15 +117,21 @@ CaptureCommandResult RunCaptureJob(const CaptureCommandOptions& o, const std::fu
   if (rgbd) result.depth_uri = rgbd->uri();
   if (thermal) result.thermal_name = thermal->Info().name;
 
-  // Progress: a bar against the duration, or a status line until Ctrl-C.
+  // Progress: with a duration, a bar of the frames of the leading stream (depth, else
+  // thermal) expected in it; until Ctrl-C, a status line.
   std::unique_ptr<core::ProgressBar> bar;
   const bool tty = ::isatty(STDERR_FILENO) != 0;
-  if (o.capture.duration_s > 0) bar = std::make_unique<core::ProgressBar>("capture", static_cast<int64_t>(std::ceil(o.capture.duration_s * 10)), "ds", o.quiet);
+  const double lead_fps = rgbd ? rgbd->depth_mode().fps : thermal ? thermal->Info().fps : 0;
+  if (o.capture.duration_s > 0 && lead_fps > 0) {
+    bar = std::make_unique<core::ProgressBar>(rgbd ? "capture depth" : "capture thermal",
+                                              static_cast<int64_t>(std::ceil(o.capture.duration_s * lead_fps)), "frames",
+                                              o.quiet);
+  }
   double last_line_s = -1e9;
   auto progress = [&](const capture::CaptureSummary& s) {
     if (o.quiet) return;
     if (bar) {
-      bar->Set(static_cast<int64_t>(s.seconds * 10));
+      bar->Set(rgbd ? s.depth.written : s.thermal.written);
       return;
     }
     // Not a terminal: one line every 10 s keeps logs readable.
