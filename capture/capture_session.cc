@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 #include <atomic>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -27,6 +28,10 @@ std::string CaptureOptions::Check() const {
   if (max_queued_frames < 1) return core::StringPrintf("max_queued_frames (--queue) %d must be >= 1", max_queued_frames);
   if (!(index_every_s > 0) || !std::isfinite(index_every_s))
     return core::StringPrintf("index_every_s %g must be finite and > 0", index_every_s);
+  if (!(max_silence_s > 0) || !std::isfinite(max_silence_s))
+    return core::StringPrintf("max_silence_s %g must be finite and > 0", max_silence_s);
+  if (!(first_frame_timeout_s > 0) || !std::isfinite(first_frame_timeout_s))
+    return core::StringPrintf("first_frame_timeout_s %g must be finite and > 0", first_frame_timeout_s);
   return "";
 }
 
@@ -113,6 +118,21 @@ class Shared {
   std::exception_ptr error() {
     std::lock_guard<std::mutex> lock(mutex_);
     return error_;
+  }
+
+  // A device failed or fell silent: the capture ends early, normally (the first reason kept).
+  void DeviceFailed(const std::string& message) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (summary_.device_error.empty()) summary_.device_error = message;
+  }
+  bool device_failed() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !summary_.device_error.empty();
+  }
+  // Scan time of the stream's last arrival, or nullopt before its first.
+  std::optional<double> LastArrival(Kind kind) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return last_arrival_[static_cast<int>(kind)];
   }
 
   CaptureSummary Snapshot() {
@@ -236,8 +256,8 @@ CaptureSummary Capture(OpenNiSource* rgbd, ThermalCamera* thermal, const core::R
   if (rgbd != nullptr) {
     try {
       rgbd->Start();
-    } catch (...) {
-      shared.Fail(std::current_exception());
+    } catch (const core::InputError& e) {
+      shared.DeviceFailed(core::OneLineMessage(e.what()));
     }
     rgbd_thread = std::thread([&] {
       try {
@@ -250,6 +270,8 @@ CaptureSummary Capture(OpenNiSource* rgbd, ThermalCamera* thermal, const core::R
                            frame->depth_unit_m, false},
                       is_depth ? depth_period_s : rgb_period_s);
         }
+      } catch (const core::InputError& e) {
+        shared.DeviceFailed(core::OneLineMessage(e.what()));
       } catch (...) {
         shared.Fail(std::current_exception());
       }
@@ -265,20 +287,43 @@ CaptureSummary Capture(OpenNiSource* rgbd, ThermalCamera* thermal, const core::R
         ffc_before = frame.ffc_in_progress;
         shared.Push(Item{Kind::kThermal, frame.arrival_s - t0, std::move(frame.raw), 0.0, starts}, thermal_period_s);
       });
-    } catch (...) {
-      shared.Fail(std::current_exception());
+    } catch (const core::InputError& e) {
+      shared.DeviceFailed(core::OneLineMessage(e.what()));
     }
   }
 
   // The calling thread watches the clock and the stop flag.
   bool by_user = false;
   double last_progress = 0;
-  while (!shared.failed()) {
+  // The streams expected to deliver, and who delivers them (for the silence check).
+  struct Watched {
+    Kind kind;
+    const char* stream;
+    std::string device;
+  };
+  std::vector<Watched> watched;
+  if (rgbd != nullptr) {
+    watched.push_back({Kind::kDepth, "depth", "RGB-D device '" + rgbd->uri() + "'"});
+    if (with_rgb) watched.push_back({Kind::kRgb, "colour", "RGB-D device '" + rgbd->uri() + "'"});
+  }
+  if (thermal != nullptr) watched.push_back({Kind::kThermal, "thermal", "thermal camera '" + thermal->Info().name + "'"});
+  while (!shared.failed() && !shared.device_failed()) {
     if (should_stop && should_stop()) {
       by_user = true;
       break;
     }
-    if (options.duration_s > 0 && MonotonicNowS() - t0 >= options.duration_s) break;
+    const double now_s = MonotonicNowS() - t0;
+    if (options.duration_s > 0 && now_s >= options.duration_s) break;
+    for (const Watched& w : watched) {
+      const std::optional<double> last_s = shared.LastArrival(w.kind);
+      if (!last_s && now_s > options.first_frame_timeout_s) {
+        shared.DeviceFailed(core::StringPrintf("%s: no %s frame in the first %.1f s", w.device.c_str(), w.stream,
+                                               options.first_frame_timeout_s));
+      } else if (last_s && now_s - *last_s > options.max_silence_s) {
+        shared.DeviceFailed(core::StringPrintf("%s: no %s frame for %.1f s after t = %.3f s (unplugged or stalled?)",
+                                               w.device.c_str(), w.stream, now_s - *last_s, *last_s));
+      }
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     if (progress) {
       const double now = MonotonicNowS();

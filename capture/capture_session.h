@@ -19,6 +19,10 @@ struct CaptureOptions {
                                 // queue is dropped and counted: memory stays bounded
   double index_every_s = 2.0;   // s, > 0; the index files are rewritten this often, so a
                                 // crash or power loss leaves a valid scan of what was written
+  double max_silence_s = 2.0;   // s, > 0; a stream that has delivered frames and then none for
+                                // this long ends the capture (a camera unplugged or stalled)
+  double first_frame_timeout_s = 5.0;  // s, > 0; the same for a stream's first frame (a
+                                       // Lepton takes about a second to deliver its first)
   std::string Check() const;
 };
 
@@ -36,6 +40,9 @@ struct CaptureSummary {
   double seconds = 0;              // wall time captured
   int64_t max_queue_frames = 0;    // high-water mark of the queue
   bool stopped_by_user = false;    // the stop flag (Ctrl-C) ended it, not the duration
+  // Non-empty when a device failed or fell silent (max_silence_s) and ended the capture
+  // early: one line naming the device. Everything it delivered before is in the scan.
+  std::string device_error;
 };
 
 // Throws core::InputError naming the stream when the rig does not describe what the
@@ -57,10 +64,12 @@ void CheckCaptureRig(const OpenNiSource* rgbd, const ThermalCamera* thermal, con
 // rising). The index files are rewritten every index_every_s and at the end, so stopping
 // at any time leaves a complete scan of everything written.
 //
+// A device that fails (an InputError from it) or falls silent ends the capture early: the
+// scan is still completed with everything recorded, and summary.device_error says why.
 // `rig` must have the streams' sizes (depth, rgb when colour is captured, thermal when
 // thermal is): a mismatch throws core::InputError naming the stream before anything is
-// recorded. `folder` must exist and be owned by the caller's core::OutputFolder. Device
-// failures throw core::InputError; write failures core::OutputError (the capture stops).
+// recorded. `folder` must exist and be owned by the caller's core::OutputFolder. Write
+// failures throw core::OutputError (the capture stops; the indexes are not rewritten).
 // `progress(summary_so_far)` is called about twice a second from the calling thread.
 CaptureSummary Capture(OpenNiSource* rgbd, ThermalCamera* thermal, const core::Rig& rig,
                        const std::filesystem::path& folder, const CaptureOptions& options,

@@ -135,6 +135,46 @@ TEST(Capture, AFullQueueDropsAndCounts) {
   EXPECT_EQ(scan.NumFrames(core::Stream::kThermal), s.thermal.written);
 }
 
+// A camera that stops sending (unplugged: the fake one makes 10 frames, then nothing) ends
+// the capture after max_silence_s, naming it; the scan keeps everything recorded.
+TEST(Capture, ASilentCameraEndsTheCaptureAndTheScanKeepsWhatWasRecorded) {
+  auto rgbd = OpenNiSource::OpenDevice(t::kTestDeviceUri, OpenNiOpenOptions{});
+  FakeThermalOptions unplugged = FastThermal();
+  unplugged.num_frames = 10;  // 0.37 s at 27 Hz
+  FakeThermalCamera thermal(unplugged);
+  const std::filesystem::path folder = hw::test::TestFolder();
+  CaptureOptions options;
+  options.duration_s = 10;
+  options.max_silence_s = 0.5;
+  const CaptureSummary s = Capture(rgbd.get(), &thermal, t::TestDeviceRig(), folder, options, [] { return false; });
+  EXPECT_NE(s.device_error.find("thermal camera 'fake thermal camera': no thermal frame for"), std::string::npos)
+      << s.device_error;
+  // Ended about 0.5 s after the last thermal frame (0.33 s), not after 10 s.
+  EXPECT_LT(s.seconds, 2.0);
+  EXPECT_GT(s.seconds, 0.8);
+  EXPECT_EQ(s.thermal.written, 10);
+  const core::Scan scan = core::Scan::Open(folder);
+  EXPECT_EQ(scan.NumFrames(core::Stream::kThermal), 10);
+  EXPECT_EQ(scan.NumFrames(core::Stream::kDepth), s.depth.written);
+  EXPECT_GT(s.depth.written, 15);
+}
+
+// A camera that never sends a frame ends the capture after first_frame_timeout_s.
+TEST(Capture, ACameraThatNeverSendsEndsTheCapture) {
+  auto rgbd = OpenNiSource::OpenDevice(t::kTestDeviceUri, OpenNiOpenOptions{});
+  FakeThermalOptions dead = FastThermal();
+  for (int64_t i = 0; i < 200; ++i) dead.dropped_frames.push_back(i);  // none reaches the host
+  FakeThermalCamera thermal(dead);
+  CaptureOptions options;
+  options.duration_s = 10;
+  options.first_frame_timeout_s = 0.6;
+  const CaptureSummary s =
+      Capture(rgbd.get(), &thermal, t::TestDeviceRig(), hw::test::TestFolder(), options, [] { return false; });
+  EXPECT_NE(s.device_error.find("no thermal frame in the first 0.6 s"), std::string::npos) << s.device_error;
+  EXPECT_LT(s.seconds, 2.0);
+  EXPECT_EQ(s.thermal.written, 0);
+}
+
 // Devices that do not match the rig are refused before anything is written.
 TEST(Capture, ARigThatDoesNotMatchTheDevicesIsRefused) {
   auto rgbd = OpenNiSource::OpenDevice(t::kTestDeviceUri, OpenNiOpenOptions{});
@@ -153,6 +193,8 @@ TEST(Capture, ARigThatDoesNotMatchTheDevicesIsRefused) {
   EXPECT_FALSE(std::filesystem::exists(folder / "rig.yaml"));
   EXPECT_FALSE(CaptureOptions{.duration_s = -1}.Check().empty());
   EXPECT_FALSE(CaptureOptions{.max_queued_frames = 0}.Check().empty());
+  EXPECT_FALSE(CaptureOptions{.max_silence_s = 0}.Check().empty());
+  EXPECT_FALSE(CaptureOptions{.first_frame_timeout_s = -1}.Check().empty());
 }
 
 }  // namespace

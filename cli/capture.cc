@@ -168,7 +168,9 @@ std::string FormatCaptureSummary(const CaptureCommandResult& r) {
   out += "Devices   depth: " + (r.depth_uri.empty() ? std::string("none") : r.depth_uri) +
          "; thermal: " + (r.thermal_name.empty() ? std::string("none") : r.thermal_name) + "\n";
   out += StringPrintf("Captured  %.1f s, %s; queue high-water mark %lld frames\n", s.seconds,
-                      s.stopped_by_user ? "stopped by Ctrl-C" : "for the requested duration",
+                      !s.device_error.empty() ? "stopped early by a device (below)"
+                      : s.stopped_by_user   ? "stopped by Ctrl-C"
+                                            : "for the requested duration",
                       static_cast<long long>(s.max_queue_frames));
   out += "\n";
   out += StringPrintf("%-8s %7s %7s %7s %5s %9s %9s %8s\n", "Stream", "Arrived", "Written", "Dropped", "Gaps", "First s",
@@ -256,6 +258,8 @@ int RunCapture(int argc, char** argv) {
       "radiometric camera (Y16 through libuvc). Every frame is timestamped on arrival with one monotonic host "
       "clock and written as it arrives (bounded memory); flat-field events go to ffc.txt; rig.yaml is the "
       "given calibration. Ctrl-C stops cleanly with everything flushed (a second Ctrl-C aborts).\n"
+      "A device that fails or sends nothing for 2 s (unplugged) ends the capture early: the scan keeps what "
+      "was recorded, and the exit code is 1.\n"
       "Exit code 0: scan written; 1: device, rig or write error; 2: bad usage.",
       "heatwave capture");
   CaptureCommandOptions o;
@@ -279,6 +283,12 @@ int RunCapture(int argc, char** argv) {
     core::StopOnInterrupt stop;  // Ctrl-C ends the recording, not the process
     const CaptureCommandResult r = RunCaptureJob(o, [] { return core::StopOnInterrupt::StopRequested(); });
     if (!common.quiet) std::cout << FormatCaptureSummary(r) << std::flush;
+    if (!r.summary.device_error.empty()) {
+      // The scan holds everything recorded until then; the run still failed.
+      PrintError(r.summary.device_error + " — the scan holds the " + StringPrintf("%.1f", r.summary.seconds) +
+                 " s recorded before");
+      return kExitFailure;
+    }
     return kExitOk;
   });
 }
