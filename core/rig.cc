@@ -110,6 +110,26 @@ Rigid3d ParseTransform(const YamlReader& reader, const YAML::Node& node, const s
   return transform;
 }
 
+// The `depth_correction` block (an extension of scan-format.md, depth_correction.h).
+DepthCorrection ParseDepthCorrection(const YamlReader& reader, const YAML::Node& node,
+                                     const std::string& key) {
+  const Fields fields =
+      reader.Mapping(node, key, {"nx", "ny", "x_range", "y_range", "offset_per_m"});
+  DepthCorrection correction;
+  correction.nx = reader.Integer(fields.Required("nx"), fields.Path("nx"));
+  correction.ny = reader.Integer(fields.Required("ny"), fields.Path("ny"));
+  const std::vector<double> x_range =
+      reader.NumberList(fields.Required("x_range"), fields.Path("x_range"), 2);
+  const std::vector<double> y_range =
+      reader.NumberList(fields.Required("y_range"), fields.Path("y_range"), 2);
+  correction.x_range = {x_range[0], x_range[1]};
+  correction.y_range = {y_range[0], y_range[1]};
+  correction.offset_per_m =
+      reader.NumberList(fields.Required("offset_per_m"), fields.Path("offset_per_m"));
+  if (const std::string problem = correction.Check(); !problem.empty()) fields.FailCheck(problem);
+  return correction;
+}
+
 ThermalSettings ParseThermal(const YamlReader& reader, const YAML::Node& node,
                              const std::string& key) {
   const Fields fields = reader.Mapping(
@@ -260,6 +280,11 @@ std::string Rig::Check() const {
       return "thermal." + problem;
     }
   }
+  if (depth_correction) {
+    if (const std::string problem = depth_correction->Check(); !problem.empty()) {
+      return "depth_correction." + problem;
+    }
+  }
   return "";
 }
 
@@ -268,7 +293,8 @@ Rig ParseRig(const std::string& yaml_text, const fs::path& path_for_errors) {
   const YAML::Node root = reader.LoadMapping(yaml_text);
   reader.CheckVersion(root, 1);
   const Fields top = reader.Mapping(
-      root, "", {"version", "depth_scale", "cameras", "extrinsics", "time_offset_s", "thermal"});
+      root, "", {"version", "depth_scale", "cameras", "extrinsics", "time_offset_s", "thermal",
+                  "depth_correction"});
   top.Required("version");
 
   Rig rig;
@@ -329,6 +355,11 @@ Rig ParseRig(const std::string& yaml_text, const fs::path& path_for_errors) {
     reader.Fail("thermal", "given but cameras.thermal is absent", top.NodeFor("thermal"));
   }
 
+  if (top.Has("depth_correction")) {
+    rig.depth_correction = ParseDepthCorrection(reader, top.Required("depth_correction"),
+                                                "depth_correction");
+  }
+
   // Cameras, extrinsics and the thermal block were checked where they were read (a
   // quaternion must be checked before it is normalised); the rest of the ranges, and any
   // future field, here, with the line of the key the message names.
@@ -374,6 +405,24 @@ std::string FormatRig(const Rig& rig) {
            "   # default surface emissivity for the whole scene\n";
     out += "  reflected_c: " + FormatYamlDouble(s.reflected_c) +
            "   # reflected apparent temperature\n";
+  }
+  if (rig.depth_correction) {
+    const DepthCorrection& c = *rig.depth_correction;
+    out += "depth_correction:   # heatwave: 1/z_true = 1/z_measured - offset(x/z, y/z), bilinear\n";
+    out += "  nx: " + std::to_string(c.nx) + "\n";
+    out += "  ny: " + std::to_string(c.ny) + "\n";
+    out += "  x_range: " + FormatYamlList(c.x_range.data(), 2) + "\n";
+    out += "  y_range: " + FormatYamlList(c.y_range.data(), 2) + "\n";
+    out += "  offset_per_m:   # 1/m, row-major (ny rows of nx)\n";
+    out += "    [";
+    for (int iy = 0; iy < c.ny; ++iy) {
+      if (iy > 0) out += ",\n     ";
+      for (int ix = 0; ix < c.nx; ++ix) {
+        if (ix > 0) out += ", ";
+        out += FormatYamlDouble(c.offset_per_m[static_cast<size_t>(iy) * c.nx + ix]);
+      }
+    }
+    out += "]\n";
   }
   return out;
 }

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "core/camera.h"
+#include "core/depth_correction.h"
 #include "core/transform.h"
 
 namespace hw::core {
@@ -74,10 +75,14 @@ struct Rig {
   double rgb_time_offset_s = 0;      // t_depth_clock = t_rgb + rgb_time_offset_s
   double thermal_time_offset_s = 0;  // t_depth_clock = t_thermal + thermal_time_offset_s
   std::optional<ThermalSettings> thermal_settings;  // present iff thermal is
+  // The depth camera's inverse-depth offset field (depth_correction.h), when calibrated
+  // (`heatwave calibrate depth`). A heatwave extension of rig.yaml: key depth_correction.
+  std::optional<DepthCorrection> depth_correction;
 
   // "" when valid, else a message naming the key, value and constraint (cameras checked
   // with CameraModel::Check, prefixed with "cameras.<name>.", the thermal block with
-  // ThermalSettings::Check, prefixed with "thermal.").
+  // ThermalSettings::Check, prefixed with "thermal."; depth_correction with
+  // DepthCorrection::Check, prefixed with "depth_correction.").
   std::string Check() const;
 };
 

@@ -1,0 +1,61 @@
+#pragma once
+
+// The depth camera's systematic error as an inverse-depth offset field (heatwave extension
+// of rig.yaml, key `depth_correction`). A structured-light sensor measures disparity
+// d = f·b/z; its per-device error is a smooth field Δd over the image (Smisek et al. 2011,
+// Herrera et al. 2012), the same at every distance, so in inverse depth it is an additive
+// field δ(x, y) = Δd / (f·b), 1/m, over the ray's normalised coordinates (x, y) = (X/Z, Y/Z)
+// (undistorted, so it does not depend on the image size):
+//   1/z_true = 1/z_measured − δ(x, y),   z_true = z_measured / (1 − z_measured·δ(x, y)).
+// A bowl of 0.2 px of disparity at f·b = 570 px · 0.075 m is δ = −0.0047 /m at the corners:
+// 19 mm at 2 m, 57 mm at 3.5 m. δ is stored at the nodes of a regular nx × ny grid over
+// [x_range] × [y_range] and interpolated bilinearly (clamped beyond the grid's border).
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "core/camera.h"
+
+namespace hw::core {
+
+struct DepthCorrection {
+  static constexpr int kMinNodes = 2, kMaxNodes = 256;
+  static constexpr double kMaxAbsRange = 10;        // normalised coordinates (84° off axis)
+  static constexpr double kMaxAbsOffsetPerM = 1.0;  // 1/m: 1 m reads 0.5 m or infinite
+
+  int nx = 0;  // nodes along x, [2, 256]
+  int ny = 0;  // nodes along y, [2, 256]
+  std::array<double, 2> x_range = {0, 0};  // x/z of the first and last column of nodes, lo < hi
+  std::array<double, 2> y_range = {0, 0};  // y/z of the first and last row of nodes, lo < hi
+  std::vector<double> offset_per_m;        // δ at node (ix, iy) = [iy·nx + ix], 1/m
+
+  // "" when valid (node counts and ranges as above, |range| <= 10, nx·ny finite offsets of
+  // |δ| <= 1 /m), else one message naming the field, value and constraint.
+  std::string Check() const;
+
+  // δ at normalised coordinates (x, y), 1/m: bilinear between the four nodes around it,
+  // the border node's value beyond the grid.
+  double OffsetAt(double x, double y) const;
+  // The corrected depth z / (1 − z·δ(x, y)), m; 0 for z <= 0 (no measurement) and for a
+  // correction that would send the point to or beyond infinity (1 − z·δ <= 0.05).
+  double Correct(double z_m, double x, double y) const;
+
+  // A grid of nx × ny zero offsets spanning the rays of `camera`'s image (its four borders'
+  // extreme normalised coordinates, with half a pixel's margin). Asserts nx, ny in range and
+  // that the corners of the image undistort.
+  static DepthCorrection ZeroOver(const CameraModel& camera, int nx, int ny);
+};
+
+// δ at every pixel of `camera` (CV_32FC1, 1/m), at the pixel centre's undistorted ray;
+// pixels whose ray does not undistort get 0. Build once per camera, apply per frame.
+cv::Mat DepthOffsetMap(const DepthCorrection& correction, const CameraModel& camera);
+
+// Corrects a depth image in place (CV_32FC1 metres along the optical axis, 0 = none) with
+// a map from DepthOffsetMap of the same size: z := z / (1 − z·δ); 0, NaN and inf stay; a
+// pixel whose correction diverges (1 − z·δ <= 0.05) becomes 0. Asserts types and sizes.
+void CorrectDepth(const cv::Mat& offset_map_per_m, cv::Mat* depth_m);
+
+}  // namespace hw::core
