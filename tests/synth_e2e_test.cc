@@ -166,6 +166,21 @@ TEST(SynthCli, RendersACalibrationSession) {
 }
 
 
+// The depth-wall session: depth and colour stills, no thermal; the true rig carries the
+// depth correction, the nominal one does not.
+TEST(SynthCli, RendersTheDepthWallSession) {
+  const fs::path out = FreshPath("depth-wall");
+  const hw::test::CommandResult r = Heatwave("synth --session depth-wall --size small -q --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const hw::core::Scan scan = hw::core::Scan::Open(out);
+  EXPECT_EQ(scan.NumFrames(Stream::kDepth), 24);
+  EXPECT_EQ(scan.NumFrames(Stream::kRgb), 24);
+  EXPECT_EQ(scan.NumFrames(Stream::kThermal), 0);
+  EXPECT_TRUE(scan.groundtruth().has_value());
+  EXPECT_TRUE(hw::core::ReadRig(out / "truth" / "rig.yaml").depth_correction.has_value());
+  EXPECT_FALSE(hw::core::ReadRig(out / "rig.yaml").depth_correction.has_value());
+}
+
 // One rig family: a session and a scan of one unit (--rig-seed) at one image scale write
 // the same truth/rig.yaml and rig.yaml (--perturb-rig), but for the thermal block's scene
 // emissivity.
