@@ -391,6 +391,8 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   const int n_depth = scan.NumFrames(core::Stream::kDepth);
   std::vector<StillData> data;
   std::vector<cv::Mat> depth_images;
+  const cv::Mat depth_offsets =
+      rig.depth_correction ? core::DepthOffsetMap(*rig.depth_correction, rig.depth) : cv::Mat();
   for (int i = 0; i < n_depth; ++i) {
     TargetExtrinsicsStill still;
     still.depth_frame = i;
@@ -428,6 +430,9 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     } else {
       d.depth_from_target = *pose;
       depth = scan.LoadDepth(i);
+      // The rig's depth calibration (calibrate depth), when it has one: the plate's plane is
+      // then measured without the sensor's disparity distortion.
+      if (!depth_offsets.empty()) core::CorrectDepth(depth_offsets, &depth);
       SelectPlatePoints(depth, rig.depth, target, *pose, o, stride, static_cast<uint64_t>(i) + 1, d);
       still.plane_points = static_cast<int>(d.plane_points.size());
       if (d.plane_points.empty()) still.reason = "too few plate points in depth";

@@ -93,6 +93,8 @@ TargetlessResult EstimateTargetlessExtrinsics(const core::Scan& scan,
   const Rectifier rectifier(*rig.thermal);
   result.rectified_thermal = rectifier.pinhole();
   const cv::Mat rays = DepthRays(rig.depth);
+  const cv::Mat depth_offsets =
+      rig.depth_correction ? core::DepthOffsetMap(*rig.depth_correction, rig.depth) : cv::Mat();
   const double depth_focal_px = 0.5 * (rig.depth.fx + rig.depth.fy);
 
   // Lines of every planned frame, in parallel.
@@ -106,7 +108,9 @@ TargetlessResult EstimateTargetlessExtrinsics(const core::Scan& scan,
     for (size_t k = next++; k < planned.size(); k = next++) {
       try {
         const PlannedFrame& p = planned[k];
-        const cv::Mat depth = scan.LoadDepth(p.depth_index);
+        cv::Mat depth = scan.LoadDepth(p.depth_index);
+        // The rig's depth calibration, when it has one: straighter planes, truer lines.
+        if (!depth_offsets.empty()) core::CorrectDepth(depth_offsets, &depth);
         LineFrame& lf = result.line_frames[k];
         lf.thermal_index = p.thermal_index;
         lf.lines_3d = ExtractDepthLines(depth, rays, depth_focal_px, options.depth_lines);

@@ -14,6 +14,7 @@
 #include "calibrate/target_detect.h"
 #include "cli/calibrate_bench.h"
 #include "cli/calibrate_extrinsics.h"
+#include "cli/calibrate_depth.h"
 #include "cli/calibrate_latency.h"
 #include "cli/command.h"
 #include "core/atomic_file.h"
@@ -396,7 +397,7 @@ std::string FormatIntrinsicsSummary(const IntrinsicsCommandResult& r, const fs::
 }
 
 int RunCalibrate(int argc, char** argv) {
-  CLI::App app("Calibrate the rig: intrinsics, extrinsics, clock offsets, or all of them on the bench with a certificate.", "heatwave calibrate");
+  CLI::App app("Calibrate the rig: intrinsics, depth error, extrinsics, clock offsets, or all of them on the bench with a certificate.", "heatwave calibrate");
   app.require_subcommand(1);
   CLI::App* intrinsics = app.add_subcommand(
       "intrinsics", "detect the target, solve the intrinsics (mrcal), check them against a QA profile");
@@ -423,10 +424,12 @@ int RunCalibrate(int argc, char** argv) {
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");
   LatencySubcommand latency(app);
+  DepthSubcommand depth(app);
   ExtrinsicsSubcommand extrinsics(app);
   BenchSubcommand bench(app);
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   if (latency.Chosen()) return latency.Run();
+  if (depth.Chosen()) return depth.Run();
   if (extrinsics.Chosen()) return extrinsics.Run();
   if (bench.Chosen()) return bench.Run();
   return RunGuarded([&] {

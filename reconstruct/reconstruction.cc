@@ -143,6 +143,9 @@ Reconstruction::Reconstruction(const core::Rig& rig, const ReconstructionOptions
   assert(options.Check().empty());
   assert(rig.Check().empty());
   if (rig_.rgb) rgb_undistorter_ = Undistorter(*rig_.rgb);
+  if (rig_.depth_correction) {
+    depth_offset_map_ = core::DepthOffsetMap(*rig_.depth_correction, rig_.depth);
+  }
 }
 
 void Reconstruction::SetInitialPose(const core::Rigid3d& world_from_depth) {
@@ -191,7 +194,15 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   // NaN / inf pixels are missing measurements, not numbers to fuse: undistortion copies them
   // (nearest neighbour), the pyramid's range limits drop them from everything downstream, and
   // registration skips them.
-  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(frame.depth_m);
+  // The sensor's systematic inverse-depth error is undone first, at the distorted pixel
+  // whose ray it was calibrated on.
+  cv::Mat corrected_depth_m;
+  if (!depth_offset_map_.empty()) {
+    corrected_depth_m = frame.depth_m.clone();
+    core::CorrectDepth(depth_offset_map_, &corrected_depth_m);
+  }
+  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(
+      depth_offset_map_.empty() ? frame.depth_m : corrected_depth_m);
   // The colour frame, undistorted once for both uses: registered to the depth pixels for
   // ICP's photometric term, and projected into the volume by integration.
   cv::Mat rgb_pinhole, registered_rgb;

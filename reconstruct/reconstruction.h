@@ -157,6 +157,9 @@ class Reconstruction {
   core::Rig rig_;
   ReconstructionOptions options_;
   Undistorter depth_undistorter_;
+  // δ per depth pixel (1/m, core/depth_correction.h) when the rig has a depth_correction;
+  // empty otherwise.
+  cv::Mat depth_offset_map_;
   Undistorter rgb_undistorter_;
   TsdfVolume volume_;
   core::Trajectory trajectory_;

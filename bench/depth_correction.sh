@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# What `heatwave calibrate depth` buys tracking, side by side in one run on the same scan:
+# the scan reconstructed with its depth uncorrected, corrected with the field calibrated
+# from a depth-wall recording of the same device, and corrected with the fixtures' true
+# field (an oracle, whole and without its affine part, which no wall recording can see).
+# Prints the calibration's figures, then each run's ATE and its ratio to the uncorrected one.
+#   bench/depth_correction.sh [--build DIR] [--out DIR] [--scan SCAN] [--wall WALL]
+# Default inputs, rendered once into --out when absent: the full `depth-wall` session and
+# the 3 s `equipment` scan (`heatwave synth --scene equipment --size full --duration 3
+# --no-thermal`, ~6 min on 2 cores).
+set -euo pipefail
+build=build
+out=build/bench-results/depth-correction
+scan=""
+wall=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --build) build=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --scan) scan=$2; shift 2 ;;
+    --wall) wall=$2; shift 2 ;;
+    *) echo "unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+heatwave="$build/cli/heatwave"
+oracle="$build/bench/bench_depth_oracle_rig"
+mkdir -p "$out"
+if [ -z "$scan" ]; then
+  scan="$out/eq3"
+  [ -f "$scan/depth.txt" ] || "$heatwave" synth --scene equipment --size full --duration 3 --no-thermal -q --overwrite --out "$scan"
+fi
+if [ -z "$wall" ]; then
+  wall="$out/wall"
+  [ -f "$wall/depth.txt" ] || "$heatwave" synth --session depth-wall --size full -q --overwrite --out "$wall"
+fi
+
+echo "== calibrate depth on $wall (through the scan's depth camera)"
+"$heatwave" calibrate depth --scan "$wall" --rig "$scan/rig.yaml" --out "$out/calibration" --overwrite --max-sigma-mm 5 |
+  grep -E "^(Planes|Residual|Field|QA|Wrote)"
+"$oracle" "$scan/rig.yaml" "$out/rig-oracle.yaml" >/dev/null
+"$oracle" "$scan/rig.yaml" "$out/rig-oracle-no-affine.yaml" --no-affine >/dev/null
+
+ate() {  # trajectory → ATE rmse in mm
+  "$heatwave" eval-trajectory "$1" "$scan/groundtruth.txt" | awk '/^ATE/ {print $4}'
+}
+declare -A rigs=([uncorrected]="$scan/rig.yaml" [calibrated]="$out/calibration/rig.yaml"
+                 [oracle]="$out/rig-oracle.yaml" [oracle-no-affine]="$out/rig-oracle-no-affine.yaml")
+base=""
+printf "%-18s %10s %8s %10s\n" run "ATE (mm)" ratio "seconds"
+for name in uncorrected calibrated oracle oracle-no-affine; do
+  start=$(date +%s.%N)
+  "$heatwave" reconstruct "$scan" --rig "${rigs[$name]}" --out "$out/reconstruct-$name" --overwrite -q
+  seconds=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
+  a=$(ate "$out/reconstruct-$name/trajectory.txt")
+  [ -n "$base" ] || base=$a
+  printf "%-18s %10.3f %8.3f %10.1f\n" "$name" "$a" "$(awk -v a="$a" -v b="$base" 'BEGIN {print a / b}')" "$seconds"
+done

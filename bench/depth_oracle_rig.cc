@@ -1,0 +1,64 @@
+// bench_depth_oracle_rig IN_RIG OUT_RIG [--nx N --ny N] [--no-affine]: writes IN_RIG with the
+// fixtures' TRUE depth correction (fixtures::TrueDepthCorrection of the default depth sensor,
+// the one every synthetic scan and session renders with) — the oracle that
+// bench/depth_correction.sh compares `heatwave calibrate depth` against. --no-affine removes
+// the field's affine part over the image's pixels, which no wall recording can observe.
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "core/rig.h"
+#include "fixtures/depth_sensor.h"
+
+int main(int argc, char** argv) {
+  using namespace hw;
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: bench_depth_oracle_rig IN_RIG OUT_RIG [--nx N --ny N] [--no-affine]\n");
+    return 2;
+  }
+  int nx = 17, ny = 13;
+  bool no_affine = false;
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--nx" && i + 1 < argc) nx = std::stoi(argv[++i]);
+    else if (a == "--ny" && i + 1 < argc) ny = std::stoi(argv[++i]);
+    else if (a == "--no-affine") no_affine = true;
+    else {
+      std::fprintf(stderr, "unknown argument %s\n", a.c_str());
+      return 2;
+    }
+  }
+  try {
+    core::Rig rig = core::ReadRig(argv[1]);
+    core::DepthCorrection c = fixtures::TrueDepthCorrection(fixtures::DepthSensorOptions(), rig.depth, nx, ny);
+    if (no_affine) {
+      // Least squares of 1, x, y over the pixels' rays (every 4th), subtracted at the nodes.
+      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      for (int v = 0; v < rig.depth.height; v += 4) {
+        for (int u = 0; u < rig.depth.width; u += 4) {
+          const auto ray = rig.depth.Unproject({double(u), double(v)});
+          if (!ray) continue;
+          const Eigen::Vector3d g(1, ray->x(), ray->y());
+          a += g * g.transpose();
+          b += g * c.OffsetAt(ray->x(), ray->y());
+        }
+      }
+      const Eigen::Vector3d p = a.ldlt().solve(b);
+      std::printf("affine part removed: %.6f %+.6f x %+.6f y (1/m)\n", p(0), p(1), p(2));
+      for (int k = 0; k < nx * ny; ++k) {
+        const double x = c.x_range[0] + (c.x_range[1] - c.x_range[0]) * (k % nx) / (nx - 1);
+        const double y = c.y_range[0] + (c.y_range[1] - c.y_range[0]) * (k / nx) / (ny - 1);
+        c.offset_per_m[k] -= p(0) + p(1) * x + p(2) * y;
+      }
+    }
+    rig.depth_correction = c;
+    core::WriteRig(argv[2], rig);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
