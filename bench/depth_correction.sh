@@ -35,7 +35,7 @@ if [ -z "$wall" ]; then
 fi
 
 echo "== calibrate depth on $wall (through the scan's depth camera)"
-"$heatwave" calibrate depth --scan "$wall" --rig "$scan/rig.yaml" --out "$out/calibration" --overwrite --max-sigma-mm 5 |
+"$heatwave" calibrate depth --scan "$wall" --rig "$scan/rig.yaml" --out "$out/calibration" --overwrite --max-sigma-mm 5 2>/dev/null |
   grep -E "^(Planes|Residual|Field|QA|Wrote)"
 "$oracle" "$scan/rig.yaml" "$out/rig-oracle.yaml" >/dev/null
 "$oracle" "$scan/rig.yaml" "$out/rig-oracle-no-affine.yaml" --no-affine >/dev/null
