@@ -145,6 +145,22 @@ TEST(DepthCorrectionFit, AnAffineFieldIsInvisibleAndLeftOut) {
   }
 }
 
+// Frames are built on several threads but summed in frame order: the same data give the
+// same bits on every run.
+TEST(DepthCorrectionFit, SameDataSameBits) {
+  const core::CameraModel camera = Kinect();
+  const core::DepthCorrection truth = TrueField(camera);
+  const Recording rec = Record(camera, truth, 12, 0.002, 11);
+  DepthCorrectionOptions options;
+  options.num_threads = 3;
+  const DepthCorrectionResult a = FitDepthCorrection(rec.frames, truth, options);
+  for (int run = 0; run < 3; ++run) {
+    const DepthCorrectionResult b = FitDepthCorrection(rec.frames, truth, options);
+    EXPECT_EQ(a.correction.offset_per_m, b.correction.offset_per_m);
+    EXPECT_EQ(a.sigma_per_m, b.sigma_per_m);
+  }
+}
+
 TEST(DepthCorrectionFit, TooFewPlanesIsAnErrorThatSaysWhy) {
   const core::CameraModel camera = Kinect();
   const core::DepthCorrection truth = TrueField(camera);
