@@ -135,7 +135,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
   JsonObject summary, timings, memory, mesh, input;
   input.String("scan", scan.folder().string())
       .String("rig", scan.rig_path().string())
-      .Int("depth_frames", r.depth_frames);
+      .Int("depth_frames", r.depth_frames)
+      .String("depth_correction", r.depth_correction.empty() ? "none" : "rig.yaml, " + r.depth_correction);
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
       .Int("posed", r.posed).Int("unposed", r.unposed)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
@@ -307,6 +308,9 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.missing = run.missing_frames;
   r.unposed = run.unposed_frames;
   r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
+  if (const auto& c = scan.rig().depth_correction) {
+    r.depth_correction = core::StringPrintf("%d x %d nodes", c->nx, c->ny);
+  }
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.coloured += f.coloured;
@@ -397,6 +401,9 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                             "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
                             r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
                             r.missing, r.unposed, r.coloured);
+  if (!r.depth_correction.empty()) {
+    out += "Depth      corrected with rig.yaml's depth_correction (" + r.depth_correction + ")\n";
+  }
   const int processed = r.depth_frames - r.missing;
   out += core::StringPrintf("Speed      %.1f frames/s processing (%.1f ms/frame: prepare %.1f, track %.1f, "
                             "integrate %.1f, raycast %.1f); decoding %.1f s\n",

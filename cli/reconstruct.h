@@ -62,6 +62,8 @@ struct ThermalCommandResult {
 struct ReconstructCommandResult {
   std::filesystem::path out_folder;
   int depth_frames = 0;  // depth frames in the range used
+  // The rig's depth_correction applied to every depth frame: "17 x 13 nodes", "" = none.
+  std::string depth_correction;
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   size_t vertices = 0, faces = 0;

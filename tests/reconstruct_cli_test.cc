@@ -96,6 +96,7 @@ TEST(ReconstructCli, GivenPosesAreFusedNotTracked) {
   const std::string json = Read(out / "reconstruct.json");
   EXPECT_NE(json.find("\"status\": \"posed\""), std::string::npos);
   EXPECT_EQ(json.find("\"status\": \"tracked\""), std::string::npos);
+  EXPECT_NE(json.find("\"depth_correction\": \"none\""), std::string::npos);
   // A pose file that does not parse: one line naming it, exit 1.
   const fs::path bad = TestFolder() / "poses.txt";
   hw::core::WriteFileAtomically(bad, "1.0 0 0 0 0 0 0\n");
@@ -118,6 +119,23 @@ TEST(ReconstructCli, GivenPosesAreFusedNotTracked) {
   EXPECT_EQ(CountLines(f.output), 1) << f.output;
   EXPECT_NE(f.output.find("within the given poses"), std::string::npos) << f.output;
   EXPECT_FALSE(fs::exists(out3));
+}
+
+// A rig with a depth_correction (`heatwave calibrate depth`) is applied and said so.
+TEST(ReconstructCli, RigDepthCorrectionIsAppliedAndReported) {
+  hw::core::Rig rig = hw::core::Scan::Open(SmoothScan()).rig();
+  rig.depth_correction = hw::core::DepthCorrection::ZeroOver(rig.depth, 5, 4);
+  rig.depth_correction->offset_per_m[7] = -0.004;
+  const fs::path rig_path = TestFolder() / "rig-corrected.yaml";
+  hw::core::WriteRig(rig_path, rig);
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() + " --voxel-size 0.01" +
+                            " --rig " + rig_path.string() + " --poses " + (SmoothScan() / "groundtruth.txt").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Depth      corrected with rig.yaml's depth_correction (5 x 4 nodes)"), std::string::npos)
+      << r.output;
+  EXPECT_NE(Read(out / "reconstruct.json").find("\"depth_correction\": \"rig.yaml, 5 x 4 nodes\""),
+            std::string::npos);
 }
 
 TEST(ReconstructCli, OutThatIsAFileIsOneLineAndExit1) {
