@@ -368,8 +368,13 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
                        100.0 * count / fit.samples, 100 * o.min_plane_fraction);
       return;
     }
+    const std::optional<Eigen::Vector3d> plane = FitPlane(s, inliers[p]);
+    if (!plane) {  // the plane's samples on one line: a sliver of wall, no plane to speak of
+      fit.skipped_because = "its largest plane's samples are degenerate (on one line)";
+      return;
+    }
     fit.used = true;
-    planes[p] = *FitPlane(s, inliers[p]);
+    planes[p] = *plane;
     std::vector<double> residuals;
     for (int i = 0; i < fit.samples; ++i) {
       if (inliers[p][i]) residuals.push_back(std::abs(s.w[i] - planes[p].dot(Eigen::Vector3d(s.x[i], s.y[i], 1))));
@@ -422,7 +427,10 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
         sigma[p] = std::max(kMadToSigma * Median(kept), 1e-6);
         // Never wider than the RANSAC band: the gate must not open onto the clutter.
         const double gate = std::min(o.inlier_sigmas * sigma[p], o.ransac_threshold_per_m);
-        for (size_t i = 0; i < s.w.size(); ++i) inliers[p][i] = std::abs(residual[i]) < gate;
+        std::vector<char> gated(s.w.size());
+        for (size_t i = 0; i < s.w.size(); ++i) gated[i] = std::abs(residual[i]) < gate;
+        // A gate that would leave too few samples for a plane keeps the last round's set.
+        if (std::count(gated.begin(), gated.end(), 1) >= o.min_plane_samples) inliers[p] = gated;
       }
       systems[u] = BuildFrameSystem(grid, s, inliers[p], 1 / (sigma[p] * sigma[p]), u, &s_sum);
     });
@@ -432,6 +440,9 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
     const double mu = s_total.diagonal().mean();
     a = s_total + mu * basis * basis.transpose();
     theta = a.ldlt().solve(r_total);
+    if (!theta.allFinite()) {
+      throw std::invalid_argument("the least-squares solve of the field failed (a singular system)");
+    }
     for (size_t u = 0; u < used.size(); ++u) {
       const FrameSystem& f = systems[u];
       planes[used[u]] = f.hpp.ldlt().solve(f.bp - f.hpt * theta);
@@ -465,6 +476,13 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
   }
 
   const Eigen::VectorXd theta_projected = projector * theta;
+  if (theta_projected.cwiseAbs().maxCoeff() > core::DepthCorrection::kMaxAbsOffsetPerM) {
+    // rig.yaml refuses such a field: no sensor reads 1 m as 0.5 m. The "planes" were not flat.
+    throw std::invalid_argument(StringPrintf(
+        "the fitted field reaches %.3g /m, beyond any depth sensor's (|offset| <= 1 /m): are the "
+        "frames of a flat wall?",
+        theta_projected.cwiseAbs().maxCoeff()));
+  }
   grid.offset_per_m.assign(theta_projected.data(), theta_projected.data() + num_nodes);
   result.correction = grid;
 
@@ -483,8 +501,9 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
       const Stencil st = BilinearStencil(grid, s.x[i], s.y[i]);
       for (int k = 0; k < 4; ++k) result.node_samples[st.node[k]] += st.weight[k] >= 0.25;
     }
-    const Eigen::Vector3d plane_alone = FitPlane(s, inliers[p]).value();
-    const Eigen::Vector3d plane_after = FitPlane(s, inliers[p], &field).value();
+    // The joint solve's plane stands in should a refit be degenerate (gating left too few).
+    const Eigen::Vector3d plane_alone = FitPlane(s, inliers[p]).value_or(planes[p]);
+    const Eigen::Vector3d plane_after = FitPlane(s, inliers[p], &field).value_or(planes[p]);
     double before = 0, after = 0;
     int count = 0;
     for (size_t i = 0; i < s.w.size(); ++i) {
