@@ -214,7 +214,7 @@ std::vector<RigItem> RigItems() {
                      }});
   }
   // Calibrated by the "depth" part: the size of the field, as depth error at 3 m (z²·δ).
-  items.push_back({"depth correction RMS at 3 m", "mm", "depth", [=](const core::Rig& r) {
+  items.push_back({"depth field RMS at 3 m", "mm", "depth", [=](const core::Rig& r) {
                      if (!r.depth_correction || r.depth_correction->offset_per_m.empty()) return nan;
                      double sum = 0;
                      for (const double v : r.depth_correction->offset_per_m) sum += v * v;

@@ -157,7 +157,7 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   EXPECT_LT(sum_error, 0.1 * sum_truth);
   bool listed = false;
   for (const json& q : c["rig"]["quantities"]) {
-    if (q["quantity"] == "depth correction RMS at 3 m") listed = q["source"] == "depth" && q["value"].get<double>() > 1;
+    if (q["quantity"] == "depth field RMS at 3 m") listed = q["source"] == "depth" && q["value"].get<double>() > 1;
   }
   EXPECT_TRUE(listed) << c["rig"].dump();
 
