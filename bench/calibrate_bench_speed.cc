@@ -6,7 +6,8 @@
 //   bench_calibrate_bench_speed --session DIR [--render] [--views 20] [--repeat 3] [--out DIR]
 //
 // --render: synthesize the full-size bench session (20 views per target part: 640 x 480
-// colour, 320 x 240 thermal; 6 s latency recording) into --session first (minutes).
+// colour, 320 x 240 thermal; 90 depth stills of a wall; 6 s latency recording) into
+// --session first (minutes).
 // Outputs go to --out (default: <session>-bench-out), replaced on every run.
 
 #include <cstdio>

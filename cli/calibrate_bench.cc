@@ -10,6 +10,7 @@
 
 #include "calibrate/qa_profile.h"
 #include "cli/calibrate.h"
+#include "cli/calibrate_depth.h"
 #include "cli/calibrate_extrinsics.h"
 #include "cli/calibrate_latency.h"
 #include "core/atomic_file.h"
@@ -101,6 +102,32 @@ PartOutcome Latency(const PartContext& c) {
   return out;
 }
 
+// The depth camera's disparity distortion from the wall recording: the rig it writes
+// carries depth_correction, which the extrinsics part then applies to the depth plate.
+PartOutcome Depth(const PartContext& c) {
+  DepthCommandOptions o;
+  o.scan = c.scan;
+  o.rig_path = c.rig_in;
+  o.out_folder = c.out;
+  o.overwrite = true;
+  o.max_sigma_mm = c.options.max_depth_sigma_mm;
+  o.min_coverage = c.options.min_depth_coverage;
+  const DepthCommandResult r = CalibrateDepth(o, c.quiet);
+  PartOutcome out;
+  out.checks = r.checks;
+  out.pass = r.pass;
+  const calibrate::DepthCorrectionResult& e = r.estimate;
+  out.note = StringPrintf("%d of %zu frames (%.2f-%.2f m): field %.2f mm RMS as depth at 3 m, largest 1σ %.2f mm, "
+                          "%.0f %% of nodes covered; residual %.2f → %.2f mm RMS",
+                          e.frames_used, e.frames.size(), e.distance_min_m, e.distance_max_m, e.field_rms_mm_at_3m,
+                          e.max_sigma_mm_at_3m, 100 * e.coverage, e.rms_before_mm, e.rms_after_mm);
+  out.images = {{"diagnostics/field.png", "Depth correction as depth error at 3 m"},
+                {"diagnostics/sigma.png", "Its uncertainty (1σ) at 3 m"}};
+  out.summary = FormatDepthSummary(r, c.out);
+  out.detect_seconds = r.read_seconds;
+  return out;
+}
+
 // The target-based extrinsics with the intrinsics the previous parts calibrated.
 PartOutcome Extrinsics(const PartContext& c) {
   ExtrinsicsCommandOptions o;
@@ -145,6 +172,7 @@ const std::vector<PartDef>& Parts() {
   static const std::vector<PartDef> parts = {
       {"intrinsics-thermal", "Thermal camera intrinsics", [](const PartContext& c) { return Intrinsics(c, "thermal"); }},
       {"intrinsics-rgb", "Colour camera intrinsics", [](const PartContext& c) { return Intrinsics(c, "rgb"); }},
+      {"depth", "Depth camera distortion (flat wall)", [](const PartContext& c) { return Depth(c); }},
       {"extrinsics", "Extrinsics (depth ← thermal, depth ← colour)", [](const PartContext& c) { return Extrinsics(c); }},
       {"latency", "Clock offsets (latency)", [](const PartContext& c) { return Latency(c); }},
   };
@@ -157,6 +185,9 @@ struct RigItem {
   std::string unit;
   std::string part;
   std::function<double(const core::Rig&)> get;  // NaN when the rig lacks it
+  // Whether the fixture check compares it with the truth: not the depth correction's size,
+  // whose affine part the wall cannot observe (the truth has one, the estimate none).
+  bool compare_to_truth = true;
 };
 std::vector<RigItem> RigItems() {
   const double nan = std::nan("");
@@ -182,6 +213,13 @@ std::vector<RigItem> RigItems() {
                        return Eigen::AngleAxisd(pose(r).rotation).angle() * 180 / M_PI;
                      }});
   }
+  // Calibrated by the "depth" part: the size of the field, as depth error at 3 m (z²·δ).
+  items.push_back({"depth field RMS at 3 m", "mm", "depth", [=](const core::Rig& r) {
+                     if (!r.depth_correction || r.depth_correction->offset_per_m.empty()) return nan;
+                     double sum = 0;
+                     for (const double v : r.depth_correction->offset_per_m) sum += v * v;
+                     return 1e3 * 9 * std::sqrt(sum / r.depth_correction->offset_per_m.size());
+                   }, false});
   items.push_back({"rgb time offset", "ms", "latency", [](const core::Rig& r) { return 1e3 * r.rgb_time_offset_s; }});
   items.push_back({"thermal time offset", "ms", "latency", [](const core::Rig& r) { return 1e3 * r.thermal_time_offset_s; }});
   return items;
@@ -234,6 +272,10 @@ std::string BenchCommandOptions::Check() const {
   if (!(max_translation_sigma_mm > 0 && max_translation_sigma_mm <= 1000)) {
     return core::OptionFail("--max-translation-sigma-mm", max_translation_sigma_mm, "in (0, 1000] mm");
   }
+  if (!(max_depth_sigma_mm > 0 && max_depth_sigma_mm <= 1000)) {
+    return core::OptionFail("--max-depth-sigma-mm", max_depth_sigma_mm, "in (0, 1000] mm");
+  }
+  if (!core::InRange(min_depth_coverage, 0, 1)) return core::OptionFail("--min-depth-coverage", min_depth_coverage, "in [0, 1]");
   return "";
 }
 
@@ -334,7 +376,7 @@ BenchResult RunBench(const BenchCommandOptions& o, bool quiet) {
     report::RigQuantity q{item.name, value, std::nullopt, item.unit, done ? item.part : "nominal (not calibrated)"};
     if (done && sigmas.count(item.name)) q.sigma = sigmas.at(item.name);
     c.rig.push_back(q);
-    if (truth && done) c.truth.push_back({item.name, value, item.get(*truth), q.sigma, item.unit});
+    if (truth && done && item.compare_to_truth) c.truth.push_back({item.name, value, item.get(*truth), q.sigma, item.unit});
   }
   core::WriteRig(o.out_folder / "rig.yaml", result.rig);
   result.written.push_back("rig.yaml");
@@ -391,8 +433,8 @@ std::string FormatBenchSummary(const BenchResult& r, const fs::path& out_folder)
 
 BenchSubcommand::BenchSubcommand(CLI::App& calibrate) {
   app_ = calibrate.add_subcommand("bench",
-                                  "the whole rig from one session folder: intrinsics of each camera, extrinsics, "
-                                  "clock offsets; rig.yaml and a PASS/FAIL certificate (JSON, HTML, PDF)");
+                                  "the whole rig from one session folder: intrinsics of each camera, the depth "
+                                  "camera's distortion, extrinsics, clock offsets; rig.yaml and a PASS/FAIL certificate (JSON, HTML, PDF)");
   AddCommonOptions(*app_, common_);
   app_->add_option("session", options_.session, "session folder: one sub-folder per part (" +
                                                     Join(BenchPartFolders(), ", ") + ")")
@@ -407,6 +449,12 @@ BenchSubcommand::BenchSubcommand(CLI::App& calibrate) {
       ->capture_default_str();
   app_->add_option("--max-translation-sigma-mm", options_.max_translation_sigma_mm,
                    "QA of the extrinsics: largest accepted 1-sigma translation uncertainty along any axis, mm")
+      ->capture_default_str();
+  app_->add_option("--max-depth-sigma-mm", options_.max_depth_sigma_mm,
+                   "QA of the depth part: largest accepted 1-sigma uncertainty of a correction node, as depth at 3 m, mm")
+      ->capture_default_str();
+  app_->add_option("--min-depth-coverage", options_.min_depth_coverage,
+                   "QA of the depth part: smallest accepted fraction of correction nodes the wall covered, [0, 1]")
       ->capture_default_str();
   app_->add_flag("--partial", options_.partial,
                  "run the parts the session has when some are missing (the verdict is then INCOMPLETE, exit 1)");

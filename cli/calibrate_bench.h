@@ -1,8 +1,9 @@
 #pragma once
 
 // heatwave calibrate bench: the whole calibration of a rig from one session folder — the
-// thermal and colour intrinsics, [the extrinsics], the clock offsets — each part by its
-// own command's typed function (cli/calibrate.h, cli/calibrate_latency.h) into
+// thermal and colour intrinsics, the depth camera's distortion, the extrinsics, the clock
+// offsets — each part by its own command's typed function (cli/calibrate.h,
+// cli/calibrate_depth.h, cli/calibrate_extrinsics.h, cli/calibrate_latency.h) into
 // DIR/<part>/, chained through rig.yaml (each part starts from the rig the previous one
 // wrote), then DIR/rig.yaml and the certificate (report/certificate.h):
 // certificate.{json,html,pdf}.
@@ -16,9 +17,17 @@
 //                               the certificate's fixture check (not QA)
 //   SESSION/intrinsics-thermal/ scan folder: thermal stream of a square_grid, target.yaml
 //   SESSION/intrinsics-rgb/     scan folder: rgb stream of a chessboard/aprilgrid, target.yaml
+//   SESSION/depth/              scan folder: depth (and rgb) stills of a flat wall seen
+//                               from near to far (heatwave synth --session depth-wall);
+//                               its rig.yaml carries depth_correction, which the
+//                               extrinsics part applies to every depth frame
 //   SESSION/extrinsics/         scan folder: depth, rgb, thermal stills of a square_grid
 //                               heated mask seen by all three, target.yaml
 //   SESSION/latency/            scan folder: depth, rgb, thermal of a waved hot object
+// A session without one of these folders (e.g. one written before the depth part existed)
+// is refused naming it; with --partial the other parts run and the verdict is INCOMPLETE
+// (without depth/, the extrinsics use the depth frames uncorrected and rig.yaml has no
+// depth_correction, unless the nominal rig had one).
 
 #include <filesystem>
 #include <string>
@@ -37,6 +46,10 @@ struct BenchCommandOptions {
   double max_latency_sigma_ms = 2.0;   // QA of the latency part: each offset's σ at most, ms, (0, 1000]
   double max_rotation_sigma_deg = 0.1;   // QA of the extrinsics: largest per-axis rotation 1σ, deg, (0, 90]
   double max_translation_sigma_mm = 2.0; // QA of the extrinsics: largest per-axis translation 1σ, mm, (0, 1000]
+  // QA of the depth part (DepthCommandOptions): every correction node's 1σ as depth at 3 m
+  // at most this, mm, (0, 1000]; at least this fraction of the nodes covered, [0, 1].
+  double max_depth_sigma_mm = 2.0;
+  double min_depth_coverage = 0.9;
   bool partial = false;   // run the parts that are there when some are missing (verdict INCOMPLETE)
   bool overwrite = false; // replace an earlier bench run in out_folder
 
@@ -53,8 +66,8 @@ struct BenchResult {
   double detect_seconds = 0;        // of which reading images, detecting targets, tracking the latency blob
 };
 
-// The part folders in bench order ("intrinsics-thermal", "intrinsics-rgb", "extrinsics",
-// "latency").
+// The part folders in bench order ("intrinsics-thermal", "intrinsics-rgb", "depth",
+// "extrinsics", "latency").
 std::vector<std::string> BenchPartFolders();
 
 // Runs the bench. Throws core::InputError when the session folder is missing or has no

@@ -172,7 +172,7 @@ Document CertificateDocument(const Certificate& c, const fs::path& folder) {
   summary.caption = "Overall: " + VerdictLine(c) + ".";
   doc.author = "heatwave calibrate bench";
   doc.subject = "Calibration certificate" + (rig_serial.empty() ? "" : " of rig " + rig_serial);
-  doc.keywords = "calibration, certificate, intrinsics, extrinsics, latency";
+  doc.keywords = "calibration, certificate, intrinsics, depth correction, extrinsics, latency";
   doc.creator = c.software;
   doc.created_utc = c.created_utc;
   doc.footer = "Calibration certificate" + (rig_serial.empty() ? "" : " · " + rig_serial) + " · " + c.verdict;

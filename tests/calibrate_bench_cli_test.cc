@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "calibrate/depth_correction_fit.h"
 #include "cli/calibrate_bench.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -40,6 +41,9 @@ fs::path WriteProfile(const fs::path& folder, const std::string& name, const std
 // The small session's 6 stills of a 3 x 4 mask at 160 x 120 thermal give ~0.6° and ~6 mm
 // (1σ, largest axis); the 0.1° / 2 mm are for a full-size bench.
 const std::string kLenientExtrinsics = " --max-rotation-sigma-deg 1 --max-translation-sigma-mm 10";
+// The small session's 24 wall stills at 320 x 240 give a largest node 1σ of ~2-4 mm at
+// 3 m (calibrate_depth_cli_test passes 5 mm for the same preset); 2 mm is for 90 stills.
+const std::string kLenientDepth = " --max-depth-sigma-mm 5";
 
 const char* const kIntrinsicsChecks[] = {"views", "rms_px", "worst_px", "view_rms_px", "outlier_fraction", "coverage",
                                          "uncertainty_px"};
@@ -50,12 +54,12 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   const fs::path lenient = WriteProfile(folder, "lenient.yaml", "max_uncertainty_px: 3\n");
   const fs::path out = folder / "out";
   Result r = Heatwave("calibrate bench " + session.string() + " --out " + out.string() + " --profile " + lenient.string() +
-                      " --max-latency-sigma-ms 10" + kLenientExtrinsics);
+                      " --max-latency-sigma-ms 10" + kLenientExtrinsics + kLenientDepth);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("Verdict    PASS"), std::string::npos) << r.output;
   for (const char* f : {"rig.yaml", "certificate.json", "certificate.html", "certificate.pdf",
-                        "intrinsics-thermal/intrinsics.json", "intrinsics-rgb/intrinsics.json", "extrinsics/extrinsics.json",
-                        "latency/latency.json"}) {
+                        "intrinsics-thermal/intrinsics.json", "intrinsics-rgb/intrinsics.json", "depth/depth_correction.json",
+                        "extrinsics/extrinsics.json", "latency/latency.json"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
   const json c = ReadJson(out / "certificate.json");
@@ -64,7 +68,7 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   EXPECT_EQ(c["date_utc"].get<std::string>().size(), 20u);  // 2026-12-02T17:00:00Z
   EXPECT_EQ(c["ids"]["rig_serial"], "SYNTH-RIG-0");
   EXPECT_EQ(c["ids"]["thermal_serial"], "SYNTH-THERMAL-0");
-  ASSERT_EQ(c["parts"].size(), 4u);
+  ASSERT_EQ(c["parts"].size(), 5u);
   for (int i = 0; i < 2; ++i) {
     const json& part = c["parts"][i];
     EXPECT_EQ(part["verdict"], "PASS") << part.dump();
@@ -74,17 +78,27 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   }
   EXPECT_EQ(c["parts"][0]["part"], "intrinsics-thermal");
   EXPECT_EQ(c["parts"][1]["part"], "intrinsics-rgb");
-  EXPECT_EQ(c["parts"][2]["part"], "extrinsics");
-  EXPECT_EQ(c["parts"][2]["verdict"], "PASS");
-  EXPECT_EQ(c["parts"][2]["checks"][0]["check"], "thermal_rotation_sigma_deg");
-  EXPECT_EQ(c["parts"][2]["checks"][3]["check"], "rgb_translation_sigma_mm");
-  EXPECT_EQ(c["parts"][2]["checks"][3]["threshold"], 10);
-  EXPECT_EQ(c["parts"][3]["part"], "latency");
+  const json& depth = c["parts"][2];
+  EXPECT_EQ(depth["part"], "depth");
+  EXPECT_EQ(depth["verdict"], "PASS") << depth.dump();
+  ASSERT_EQ(depth["checks"].size(), 2u);
+  EXPECT_EQ(depth["checks"][0]["check"], "sigma_mm_at_3m");
+  EXPECT_EQ(depth["checks"][0]["threshold"], 5);
+  EXPECT_EQ(depth["checks"][1]["check"], "coverage");
+  EXPECT_EQ(depth["images"].size(), 2u);
+  EXPECT_NE(depth["note"].get<std::string>().find("mm RMS as depth at 3 m"), std::string::npos) << depth.dump();
+  EXPECT_EQ(c["parts"][3]["part"], "extrinsics");
   EXPECT_EQ(c["parts"][3]["verdict"], "PASS");
-  EXPECT_EQ(c["parts"][3]["checks"][0]["check"], "rgb_sigma_ms");
-  EXPECT_EQ(c["parts"][3]["checks"][1]["threshold"], 10);
+  EXPECT_EQ(c["parts"][3]["checks"][0]["check"], "thermal_rotation_sigma_deg");
+  EXPECT_EQ(c["parts"][3]["checks"][3]["check"], "rgb_translation_sigma_mm");
+  EXPECT_EQ(c["parts"][3]["checks"][3]["threshold"], 10);
+  EXPECT_EQ(c["parts"][4]["part"], "latency");
+  EXPECT_EQ(c["parts"][4]["verdict"], "PASS");
+  EXPECT_EQ(c["parts"][4]["checks"][0]["check"], "rgb_sigma_ms");
+  EXPECT_EQ(c["parts"][4]["checks"][1]["threshold"], 10);
   const std::string html = hw::core::ReadFile(out / "certificate.html", uint64_t{1} << 26);
-  for (const char* name : {"uncertainty_px", "thermal_rotation_sigma_deg", "rgb_sigma_ms", "thermal_sigma_ms", "SYNTH-RIG-0"}) {
+  for (const char* name : {"uncertainty_px", "sigma_mm_at_3m", "Depth camera distortion", "thermal_rotation_sigma_deg",
+                           "rgb_sigma_ms", "thermal_sigma_ms", "SYNTH-RIG-0"}) {
     EXPECT_NE(html.find(name), std::string::npos) << name;
   }
 
@@ -94,11 +108,18 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   const hw::core::Rig truth = hw::core::ReadRig(session / "truth" / "rig.yaml");
   const hw::core::Rig nominal = hw::core::ReadRig(session / "rig.yaml");
   const hw::core::Rig rig = hw::core::ReadRig(out / "rig.yaml");
+  // The extrinsics' tz (along the depth axis, where the depth plate's distance sets it) has
+  // a bias its σ leaves out: 2-4 mm on the small session (seeds 1, 2) even with the TRUE
+  // depth correction, of which ~1 mm is the correction's affine part the wall cannot see
+  // (z²·α at the plate's 0.8 m); 2 mm more is allowed there. Before the depth part the
+  // uncorrected residuals inflated σ enough to hide it.
   const json& rows = c["fixture_truth_check"]["quantities"];
   ASSERT_EQ(rows.size(), 18u) << rows.dump();  // fx fy cx cy of 2 cameras, t xyz + angle of 2 extrinsics, 2 offsets
   for (const json& row : rows) {
     ASSERT_TRUE(row["sigma"].is_number()) << row.dump();
-    EXPECT_LT(std::abs(row["error"].get<double>()), 4 * row["sigma"].get<double>()) << row.dump();
+    const std::string name = row["quantity"];
+    const double bias_mm = name.size() > 3 && name.substr(name.size() - 3) == " tz" ? 2.0 : 0.0;
+    EXPECT_LT(std::abs(row["error"].get<double>()), 4 * row["sigma"].get<double>() + bias_mm) << row.dump();
   }
   EXPECT_EQ(rows[0]["quantity"], "thermal fx");
   EXPECT_DOUBLE_EQ(rows[0]["calibrated"].get<double>(), rig.thermal->fx);
@@ -114,6 +135,32 @@ TEST(CalibrateBenchCli, CertifiesTheRigAndRecoversTheTruth) {
   EXPECT_LT(hw::core::ComparePoses(rig.depth_from_thermal, truth.depth_from_thermal).rotation_rad,
             hw::core::ComparePoses(nominal.depth_from_thermal, truth.depth_from_thermal).rotation_rad);
 
+  // The depth part's correction is in the final rig (the later parts kept it) and matches
+  // the truth's field at the nodes once the affine part the wall cannot observe is removed
+  // from it (0.001 /m RMS is 9 mm at 3 m, a tenth of the bowl's depth there; squared error
+  // under a tenth of the truth's, as calibrate_depth_cli_test on the same preset; measured
+  // 2.8 and 3.0 mm RMS at 3 m against the truth's 19.2 mm, ratio² 0.021 / 0.025, seeds 1, 2).
+  ASSERT_TRUE(rig.depth_correction && truth.depth_correction);
+  EXPECT_FALSE(nominal.depth_correction);
+  const hw::core::DepthCorrection& solved = *rig.depth_correction;
+  ASSERT_EQ(solved.nx, truth.depth_correction->nx);
+  ASSERT_EQ(solved.ny, truth.depth_correction->ny);
+  ASSERT_EQ(solved.x_range, truth.depth_correction->x_range);
+  const std::vector<double> truth_field =
+      hw::calibrate::WithoutAffinePart(*truth.depth_correction, truth.depth_correction->offset_per_m);
+  double sum_error = 0, sum_truth = 0;
+  for (size_t k = 0; k < truth_field.size(); ++k) {
+    sum_error += std::pow(solved.offset_per_m[k] - truth_field[k], 2);
+    sum_truth += std::pow(truth_field[k], 2);
+  }
+  EXPECT_LT(std::sqrt(sum_error / truth_field.size()), 0.001);
+  EXPECT_LT(sum_error, 0.1 * sum_truth);
+  bool listed = false;
+  for (const json& q : c["rig"]["quantities"]) {
+    if (q["quantity"] == "depth field RMS at 3 m") listed = q["source"] == "depth" && q["value"].get<double>() > 1;
+  }
+  EXPECT_TRUE(listed) << c["rig"].dump();
+
   // An earlier run is not replaced without --overwrite.
   r = Heatwave("calibrate bench -q " + session.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -126,7 +173,7 @@ TEST(CalibrateBenchCli, AFailedCheckFailsTheRig) {
   const fs::path strict = WriteProfile(folder, "strict.yaml", "min_views: 11\nmax_uncertainty_px: 3\n");
   const fs::path out = folder / "out";
   const Result r = Heatwave("calibrate bench " + session.string() + " --out " + out.string() + " --profile " +
-                            strict.string() + " --max-latency-sigma-ms 10" + kLenientExtrinsics);
+                            strict.string() + " --max-latency-sigma-ms 10" + kLenientExtrinsics + kLenientDepth);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("error: the rig is not certified: FAIL"), std::string::npos) << r.output;
   const json c = ReadJson(out / "certificate.json");
@@ -135,24 +182,33 @@ TEST(CalibrateBenchCli, AFailedCheckFailsTheRig) {
   EXPECT_EQ(c["parts"][0]["checks"][0]["check"], "views");
   EXPECT_EQ(c["parts"][0]["checks"][0]["verdict"], "FAIL");
   EXPECT_EQ(c["parts"][0]["checks"][0]["measured"], 10);
-  EXPECT_EQ(c["parts"][3]["verdict"], "PASS");
+  EXPECT_EQ(c["parts"][2]["verdict"], "PASS");
+  EXPECT_EQ(c["parts"][4]["verdict"], "PASS");
   EXPECT_TRUE(fs::exists(out / "rig.yaml"));  // written, not certified
 }
 
 TEST(CalibrateBenchCli, AMissingPartIsNamedAndRunsOnlyWithPartial) {
   const fs::path folder = TestFolder();
   const fs::path session = hw::fixtures::test::CachedBenchSession();
-  // The session without its latency part (the others linked in).
+  // The session without its depth and latency parts (the others linked in): as a session
+  // written before the bench had a depth part, less its latency.
   const fs::path partial = folder / "session";
   fs::create_directories(partial);
   for (const char* entry : {"rig.yaml", "session.yaml"}) fs::copy(session / entry, partial / entry);
   for (const char* part : {"intrinsics-thermal", "intrinsics-rgb", "extrinsics"}) fs::create_directory_symlink(session / part, partial / part);
   const fs::path out = folder / "out";
-  const Result r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
+  Result r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("missing part latency/ (pass --partial"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("missing parts depth/, latency/ (pass --partial"), std::string::npos) << r.output;
   EXPECT_EQ(hw::test::CountLines(r.output), 1) << r.output;
   EXPECT_FALSE(fs::exists(out));
+  // Only depth/ missing: named alone.
+  fs::create_directory_symlink(session / "latency", partial / "latency");
+  r = Heatwave("calibrate bench -q " + partial.string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("missing part depth/ (pass --partial"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  fs::remove(partial / "latency");
 
   // The typed function, in process. Not a session at all: refused, nothing written.
   hw::cli::BenchCommandOptions o;
@@ -178,9 +234,13 @@ TEST(CalibrateBenchCli, AMissingPartIsNamedAndRunsOnlyWithPartial) {
   EXPECT_EQ(c["verdict"], "INCOMPLETE");
   EXPECT_EQ(result.certificate.verdict, "INCOMPLETE");
   EXPECT_EQ(c["parts"][0]["verdict"], "PASS");
-  EXPECT_EQ(c["parts"][2]["verdict"], "PASS");
-  EXPECT_EQ(c["parts"][3]["verdict"], "NOT RUN");
-  EXPECT_TRUE(c["parts"][3]["checks"].empty());
+  EXPECT_EQ(c["parts"][2]["part"], "depth");
+  EXPECT_EQ(c["parts"][2]["verdict"], "NOT RUN");
+  EXPECT_NE(c["parts"][2]["note"].get<std::string>().find("no depth/ folder"), std::string::npos) << c["parts"][2].dump();
+  EXPECT_EQ(c["parts"][3]["verdict"], "PASS");  // the extrinsics, on uncorrected depth
+  EXPECT_EQ(c["parts"][4]["verdict"], "NOT RUN");
+  EXPECT_TRUE(c["parts"][4]["checks"].empty());
+  EXPECT_FALSE(result.rig.depth_correction);  // none made up
   EXPECT_FALSE(c.contains("fixture_truth_check"));  // this copy has no truth/
   const hw::core::Rig nominal = hw::core::ReadRig(session / "rig.yaml");
   EXPECT_EQ(hw::core::ReadRig(out / "rig.yaml").thermal_time_offset_s, nominal.thermal_time_offset_s);
