@@ -150,7 +150,8 @@ namespace hw::calibrate {
 // Measurement by hand on sessions rendered with `heatwave synth --session extrinsics-target`:
 // EXT_SESSIONS=dir1,dir2,... (each with truth/rig.yaml); prints errors, sigmas and timings.
 // EXT_NODM=1 / EXT_NOES=1 / EXT_NOSE=1 switch off the depth model, edge shift, still errors;
-// EXT_STILLS=1 prints every still.
+// EXT_STILLS=1 prints every still. EXT_DEPTH_RIG=rig.yaml applies that rig's depth_correction
+// (`heatwave calibrate depth` of a depth-wall recording of the same device).
 TEST(TargetExtrinsicsMeasure, DISABLED_SessionsFromEnvironment) {
   const char* env = std::getenv("EXT_SESSIONS");
   if (!env) GTEST_SKIP();
@@ -164,6 +165,9 @@ TEST(TargetExtrinsicsMeasure, DISABLED_SessionsFromEnvironment) {
     core::Rig rig = core::ReadRig(session / "rig.yaml");
     const core::Rig truth = core::ReadRig(session / "truth" / "rig.yaml");
     rig.depth = truth.depth; rig.rgb = truth.rgb; rig.thermal = truth.thermal;
+    if (const char* depth_rig = std::getenv("EXT_DEPTH_RIG")) {
+      rig.depth_correction = core::ReadRig(depth_rig).depth_correction;
+    }
     const std::filesystem::path rig_path = std::filesystem::path(::testing::TempDir()) / "measure-rig.yaml";
     core::WriteRig(rig_path, rig);
     core::ScanOptions so;
