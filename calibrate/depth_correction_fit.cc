@@ -32,26 +32,7 @@ constexpr int kMaxDenseNodes = 2500;  // the reduced system is dense: 2500² dou
 constexpr double kMadToSigma = 1.4826;
 constexpr int kCoveredNodeSamples = 50;
 
-// The four nodes around (x, y) and their bilinear weights (as DepthCorrection::OffsetAt).
-struct Stencil {
-  int node[4];
-  double weight[4];
-};
-
-Stencil BilinearStencil(const core::DepthCorrection& grid, double x, double y) {
-  const double gx =
-      std::clamp((x - grid.x_range[0]) / (grid.x_range[1] - grid.x_range[0]) * (grid.nx - 1), 0.0,
-                 static_cast<double>(grid.nx - 1));
-  const double gy =
-      std::clamp((y - grid.y_range[0]) / (grid.y_range[1] - grid.y_range[0]) * (grid.ny - 1), 0.0,
-                 static_cast<double>(grid.ny - 1));
-  const int ix = std::min(static_cast<int>(gx), grid.nx - 2);
-  const int iy = std::min(static_cast<int>(gy), grid.ny - 2);
-  const double fx = gx - ix, fy = gy - iy;
-  const int k = iy * grid.nx + ix;
-  return {{k, k + 1, k + grid.nx, k + grid.nx + 1},
-          {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}};
-}
+using Stencil = core::DepthCorrection::Stencil;
 
 Eigen::Vector2d NodePosition(const core::DepthCorrection& grid, int k) {
   const int ix = k % grid.nx, iy = k / grid.nx;
@@ -203,7 +184,7 @@ FrameSystem BuildFrameSystem(const core::DepthCorrection& grid, const DepthFrame
   for (size_t i = 0; i < s.w.size(); ++i) {
     if (!use[i]) continue;
     const Eigen::Vector3d g(s.x[i], s.y[i], 1);
-    const Stencil st = BilinearStencil(grid, s.x[i], s.y[i]);
+    const Stencil st = grid.StencilAt(s.x[i], s.y[i]);
     f.hpp += weight * g * g.transpose();
     f.bp += weight * g * s.w[i];
     for (int a = 0; a < 4; ++a) {
@@ -227,7 +208,7 @@ Eigen::VectorXd ReducedTimes(const core::DepthCorrection& grid, const DepthFrame
   Eigen::VectorXd out = Eigen::VectorXd::Zero(theta.size());
   for (size_t i = 0; i < s.w.size(); ++i) {
     if (!use[i]) continue;
-    const Stencil st = BilinearStencil(grid, s.x[i], s.y[i]);
+    const Stencil st = grid.StencilAt(s.x[i], s.y[i]);
     double b_theta = 0;
     for (int a = 0; a < 4; ++a) b_theta += st.weight[a] * theta(st.node[a]);
     for (int a = 0; a < 4; ++a) out(st.node[a]) += weight * st.weight[a] * b_theta;
@@ -418,7 +399,7 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
         std::vector<double> residual(s.w.size());
         std::vector<double> kept;
         for (size_t i = 0; i < s.w.size(); ++i) {
-          const Stencil st = BilinearStencil(grid, s.x[i], s.y[i]);
+          const Stencil st = grid.StencilAt(s.x[i], s.y[i]);
           double delta = 0;
           for (int k = 0; k < 4; ++k) delta += st.weight[k] * theta(st.node[k]);
           residual[i] = s.w[i] - planes[p].dot(Eigen::Vector3d(s.x[i], s.y[i], 1)) - delta;
@@ -498,7 +479,7 @@ DepthCorrectionResult FitDepthCorrection(const std::vector<DepthFrameSamples>& f
     for (size_t i = 0; i < s.w.size(); ++i) {
       if (!inliers[p][i]) continue;
       field[i] = grid.OffsetAt(s.x[i], s.y[i]);
-      const Stencil st = BilinearStencil(grid, s.x[i], s.y[i]);
+      const Stencil st = grid.StencilAt(s.x[i], s.y[i]);
       for (int k = 0; k < 4; ++k) result.node_samples[st.node[k]] += st.weight[k] >= 0.25;
     }
     // The joint solve's plane stands in should a refit be degenerate (gating left too few).

@@ -49,8 +49,7 @@ std::string DepthCorrection::Check() const {
   return "";
 }
 
-double DepthCorrection::OffsetAt(double x, double y) const {
-  assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
+DepthCorrection::Stencil DepthCorrection::StencilAt(double x, double y) const {
   const double gx = std::clamp((x - x_range[0]) / (x_range[1] - x_range[0]) * (nx - 1), 0.0,
                                static_cast<double>(nx - 1));
   const double gy = std::clamp((y - y_range[0]) / (y_range[1] - y_range[0]) * (ny - 1), 0.0,
@@ -58,9 +57,17 @@ double DepthCorrection::OffsetAt(double x, double y) const {
   const int ix = std::min(static_cast<int>(gx), nx - 2);
   const int iy = std::min(static_cast<int>(gy), ny - 2);
   const double fx = gx - ix, fy = gy - iy;
-  const double* row0 = &offset_per_m[static_cast<size_t>(iy) * nx + ix];
-  const double* row1 = row0 + nx;
-  return (1 - fy) * ((1 - fx) * row0[0] + fx * row0[1]) + fy * ((1 - fx) * row1[0] + fx * row1[1]);
+  const int k = iy * nx + ix;
+  return {{k, k + 1, k + nx, k + nx + 1},
+          {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}};
+}
+
+double DepthCorrection::OffsetAt(double x, double y) const {
+  assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
+  const Stencil st = StencilAt(x, y);
+  double offset = 0;
+  for (int k = 0; k < 4; ++k) offset += st.weight[k] * offset_per_m[st.node[k]];
+  return offset;
 }
 
 double DepthCorrection::Correct(double z_m, double x, double y) const {

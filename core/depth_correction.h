@@ -36,6 +36,14 @@ struct DepthCorrection {
   // |δ| <= 1 /m), else one message naming the field, value and constraint.
   std::string Check() const;
 
+  // The four nodes around (x, y) (indices into offset_per_m) and their bilinear weights,
+  // the border nodes' beyond the grid: δ(x, y) = Σ weight[k]·offset_per_m[node[k]]. Needs
+  // only nx, ny and the ranges (a fit uses it on a grid whose offsets it is solving for).
+  struct Stencil {
+    int node[4];
+    double weight[4];
+  };
+  Stencil StencilAt(double x, double y) const;
   // δ at normalised coordinates (x, y), 1/m: bilinear between the four nodes around it,
   // the border node's value beyond the grid.
   double OffsetAt(double x, double y) const;
