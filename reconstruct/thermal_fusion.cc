@@ -6,10 +6,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <stdexcept>
-#include <unordered_map>
 
 #include <Eigen/Geometry>
+#include <absl/container/flat_hash_map.h>
 
 #include "core/option_check.h"
 #include "core/strings.h"
@@ -62,6 +63,55 @@ struct Ray {
   Eigen::Vector3f point_in_world;
   Eigen::Vector3f footprint_u, footprint_v;
   float confidence, surface_c, apparent_c;
+};
+
+// A growable array whose elements never move: chunks of 2^kShift value-initialised
+// elements. A std::vector of regions (~700k, 50 MB on a 2 s scan) copied itself on every
+// doubling, faulting the new copy's pages in: a quarter of the fusion's time on that scan.
+template <class T, int kShift>
+class ChunkedVector {
+ public:
+  T& operator[](size_t i) { return chunks_[i >> kShift][i & kMask]; }
+  const T& operator[](size_t i) const { return chunks_[i >> kShift][i & kMask]; }
+  size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  // Appends a value-initialised element; returns its index.
+  size_t Grow() {
+    if ((size_ >> kShift) == chunks_.size()) chunks_.push_back(std::make_unique<T[]>(kChunk));
+    return size_++;
+  }
+  size_t CapacityBytes() const { return chunks_.size() * kChunk * sizeof(T); }
+
+ private:
+  static constexpr size_t kChunk = size_t{1} << kShift, kMask = kChunk - 1;
+  std::vector<std::unique_ptr<T[]>> chunks_;
+  size_t size_ = 0;
+};
+
+// The region slots of one block's voxels (region index, -1: none yet).
+struct BlockRegions {
+  std::array<int32_t, kBlockVoxels> slot;
+  BlockRegions() { slot.fill(-1); }
+};
+
+// One thread's share of Impl::ShadeRays.
+struct ShadePart {
+  std::vector<Ray> rays;
+  int hits = 0, low_confidence = 0, no_normal = 0, no_surface = 0;
+  double confidence_sum = 0;
+  void Clear() {
+    rays.clear();
+    hits = low_confidence = no_normal = no_surface = 0;
+    confidence_sum = 0;
+  }
+};
+
+// One splat of a ray (Impl::Splat).
+struct SplatRef {
+  int32_t i, j, k;  // voxel
+  int32_t ray;      // index in the frame's fused rays
+  int32_t region;   // < 0: to be created (-1) or outside the key range (-2)
+  float share;      // 1 / splats of the ray
 };
 
 // Splats per footprint axis at most: a ray whose footprint spans more voxels (a grazing view
@@ -117,15 +167,20 @@ struct ThermalFusion::Impl {
   float voxel_m = 0;
 
   // Regions: blocks of kBlockVoxels slots (region index or -1), keyed like the TSDF's.
-  std::unordered_map<uint64_t, int32_t> block_index;
-  std::vector<std::array<int32_t, kBlockVoxels>> blocks;
-  std::vector<Region> regions;
-  std::vector<FrameSum> frame_sums;  // per region, zero between frames
-  // Per fused frame, its region observations: chunks, so that keeping them never copies
-  // what is already kept (one vector would move gigabytes each time it grows).
+  absl::flat_hash_map<uint64_t, int32_t> block_index;  // SwissTable, as the TSDF's index
+  ChunkedVector<BlockRegions, 8> blocks;  // 512 KB chunks
+  ChunkedVector<Region, 16> regions;       // 4.7 MB chunks
+  ChunkedVector<FrameSum, 16> frame_sums;  // per region, zero between frames
+  // Per fused frame (and thread of Splat), its region observations: chunks, so that keeping
+  // them never copies what is already kept (one vector would move gigabytes each time it grows).
   std::vector<std::vector<Record>> records;
   size_t num_records = 0;
   std::vector<ThermalFrameRecord> frames;
+  // Scratch of ShadeRays and Splat, kept between frames: fresh buffers each frame cost more
+  // in page faults than the work they hold (measured: half of Splat's time).
+  std::vector<ShadePart> shade_scratch;
+  std::vector<Ray> fused_scratch;
+  std::vector<std::vector<SplatRef>> splat_scratch;
   cv::Mat previous_image;
   bool finished = false;
   int64_t offline_rejected = 0;
@@ -143,19 +198,16 @@ struct ThermalFusion::Impl {
       auto it = block_index.find(key);
       if (it == block_index.end()) {
         if (!create) return -1;
-        it = block_index.emplace(key, static_cast<int32_t>(blocks.size())).first;
-        blocks.emplace_back();
-        blocks.back().fill(-1);
+        it = block_index.emplace(key, static_cast<int32_t>(blocks.Grow())).first;
       }
       cached_key = key;
       cached_block = it->second;
     }
     const int slot = (i & (kBlockSide - 1)) + kBlockSide * ((j & (kBlockSide - 1)) + kBlockSide * (k & (kBlockSide - 1)));
-    int32_t& region = blocks[cached_block][slot];
+    int32_t& region = blocks[cached_block].slot[slot];
     if (region < 0 && create) {
-      region = static_cast<int32_t>(regions.size());
-      regions.emplace_back();
-      frame_sums.emplace_back();
+      region = static_cast<int32_t>(regions.Grow());
+      frame_sums.Grow();
     }
     return region;
   }
@@ -170,7 +222,7 @@ struct ThermalFusion::Impl {
       cached_key = key;
       cached_block = it->second;
     }
-    return blocks[cached_block][(i & (kBlockSide - 1)) +
+    return blocks[cached_block].slot[(i & (kBlockSide - 1)) +
                                 kBlockSide * ((j & (kBlockSide - 1)) + kBlockSide * (k & (kBlockSide - 1)))];
   }
 
@@ -194,32 +246,35 @@ struct ThermalFusion::Impl {
     return thermal_timestamp_s - *(it - 1);
   }
 
-  // Computes the rays of one frame (parallel); returns the fused ones.
-  std::vector<Ray> ShadeRays(const PointMap& map, const cv::Mat& apparent_c, const core::Rigid3d& world_from_thermal,
-                             const Eigen::Vector3d& linear_velocity_mps, const Eigen::Vector3d& angular_velocity_radps,
-                             double operating, ThermalFrameRecord& record) const;
+  // Computes the rays of one frame (parallel); returns the fused ones (valid until the
+  // next call).
+  const std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+                                    const core::Rigid3d& world_from_thermal,
+                                    const Eigen::Vector3d& linear_velocity_mps,
+                                    const Eigen::Vector3d& angular_velocity_radps, double operating,
+                                    ThermalFrameRecord& record);
   void Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record);
+  // Applies every update rule to region r from its frame sum (then zeroed); appends its
+  // observation to frame_records when observations are kept.
+  void UpdateRegion(int32_t r, float max_weight, std::vector<Record>& frame_records);
 };
 
-std::vector<Ray> ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
-                                                const core::Rigid3d& world_from_thermal,
-                                                const Eigen::Vector3d& linear_velocity_mps,
-                                                const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                                ThermalFrameRecord& record) const {
+const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+                                                       const core::Rigid3d& world_from_thermal,
+                                                       const Eigen::Vector3d& linear_velocity_mps,
+                                                       const Eigen::Vector3d& angular_velocity_radps, double operating,
+                                                       ThermalFrameRecord& record) {
   const int width = map.width, height = map.height;
   const int num_threads = std::min(internal::ResolveThreads(options.num_threads), height);
-  struct Part {
-    std::vector<Ray> rays;
-    int hits = 0, low_confidence = 0, no_normal = 0, no_surface = 0;
-    double confidence_sum = 0;
-  };
-  std::vector<Part> parts(num_threads);
+  std::vector<ShadePart>& parts = shade_scratch;
+  parts.resize(num_threads);
+  for (ShadePart& part : parts) part.Clear();
   const Eigen::Matrix3d thermal_from_world = world_from_thermal.rotation.conjugate().toRotationMatrix();
   const Eigen::Vector3d origin = world_from_thermal.translation;
   const double fx = rig.thermal->fx, fy = rig.thermal->fy;
   const ThermalConfidenceOptions& co = options.confidence;
   internal::RunChunks(num_threads, [&](int chunk) {
-    Part& part = parts[chunk];
+    ShadePart& part = parts[chunk];
     for (int y = chunk * height / num_threads; y < (chunk + 1) * height / num_threads; ++y) {
       const float* row = apparent_c.ptr<float>(y);
       for (int x = 0; x < width; ++x) {
@@ -281,9 +336,10 @@ std::vector<Ray> ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::M
       }
     }
   });
-  std::vector<Ray> fused;
+  std::vector<Ray>& fused = fused_scratch;
+  fused.clear();
   double confidence_sum = 0;
-  for (Part& part : parts) {
+  for (ShadePart& part : parts) {
     record.hits += part.hits;
     record.low_confidence += part.low_confidence;
     record.no_normal += part.no_normal;
@@ -297,75 +353,123 @@ std::vector<Ray> ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::M
 }
 
 void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record) {
-  std::vector<int32_t> touched;
-  uint64_t cached_key = ~uint64_t{0};
-  int32_t cached_block = -1;
-  for (const Ray& ray : fused) {
-    // A footprint wider than a voxel is covered by a grid of splats at most a voxel apart,
-    // so that a far or grazing view leaves no voxel between its rays unobserved.
-    const int nu = std::clamp(static_cast<int>(std::ceil(ray.footprint_u.norm() / voxel_m)), 1, kMaxFootprintSplats);
-    const int nv = std::clamp(static_cast<int>(std::ceil(ray.footprint_v.norm() / voxel_m)), 1, kMaxFootprintSplats);
-    const float share = 1.0f / static_cast<float>(nu * nv);
-    for (int a = 0; a < nu; ++a) {
-      for (int b = 0; b < nv; ++b) {
-        const Eigen::Vector3f point = ray.point_in_world +
-                                      ((a + 0.5f) / static_cast<float>(nu) - 0.5f) * ray.footprint_u +
-                                      ((b + 0.5f) / static_cast<float>(nv) - 0.5f) * ray.footprint_v;
-        // The nearest voxel takes it (a trilinear splat would touch 8, twice the surface's
-        // two layers of voxels, for no gain: Sample() interpolates between observed voxels).
-        const Eigen::Vector3f g = point / voxel_m;
-        const int32_t r = RegionOf(FloorToInt(g.x() + 0.5f), FloorToInt(g.y() + 0.5f), FloorToInt(g.z() + 0.5f),
-                                   true, cached_key, cached_block);
-        if (r < 0) continue;
-        FrameSum& s = frame_sums[r];
-        if (s.weight == 0) touched.push_back(r);
-        const float wc = share * ray.confidence;
-        s.weight += share;
+  // Four passes, so that the hash lookups, the accumulation and the update rules run on
+  // every thread while the result stays exactly that of one thread taking the splats in ray
+  // order: (1) per ray chunk, each splat's voxel and its region if it exists (read-only
+  // lookups); (2) one thread creates the missing regions in splat order (so region indices
+  // do not depend on the thread count); (3) each thread sums, in splat order, the splats of
+  // the regions it owns (runs of 64 region indices dealt round-robin, so that
+  // two threads never write the same cache line); (4) each thread runs the update rules
+  // on its own regions.
+  const int num_threads = std::max(1, std::min(internal::ResolveThreads(options.num_threads),
+                                               static_cast<int>(fused.size() / 1024) + 1));
+  constexpr int32_t kMissing = -1, kOutOfRange = -2;
+  std::vector<std::vector<SplatRef>>& parts = splat_scratch;
+  parts.resize(num_threads);
+  const size_t n_rays = fused.size();
+  internal::RunChunks(num_threads, [&](int chunk) {
+    std::vector<SplatRef>& part = parts[chunk];
+    part.clear();
+    uint64_t cached_key = ~uint64_t{0};
+    int32_t cached_block = -1;
+    for (size_t r = chunk * n_rays / num_threads; r < (chunk + 1) * n_rays / num_threads; ++r) {
+      const Ray& ray = fused[r];
+      // A footprint wider than a voxel is covered by a grid of splats at most a voxel apart,
+      // so that a far or grazing view leaves no voxel between its rays unobserved.
+      const int nu = std::clamp(static_cast<int>(std::ceil(ray.footprint_u.norm() / voxel_m)), 1, kMaxFootprintSplats);
+      const int nv = std::clamp(static_cast<int>(std::ceil(ray.footprint_v.norm() / voxel_m)), 1, kMaxFootprintSplats);
+      const float share = 1.0f / static_cast<float>(nu * nv);
+      for (int a = 0; a < nu; ++a) {
+        for (int b = 0; b < nv; ++b) {
+          const Eigen::Vector3f point = ray.point_in_world +
+                                        ((a + 0.5f) / static_cast<float>(nu) - 0.5f) * ray.footprint_u +
+                                        ((b + 0.5f) / static_cast<float>(nv) - 0.5f) * ray.footprint_v;
+          // The nearest voxel takes it (a trilinear splat would touch 8, twice the surface's
+          // two layers of voxels, for no gain: Sample() interpolates between observed voxels).
+          const Eigen::Vector3f g = point / voxel_m;
+          const int i = FloorToInt(g.x() + 0.5f), j = FloorToInt(g.y() + 0.5f), k = FloorToInt(g.z() + 0.5f);
+          int32_t region = kOutOfRange;
+          if (internal::KeyInRange(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift)) {
+            region = FindRegion(i, j, k, cached_key, cached_block);
+            if (region < 0) region = kMissing;
+          }
+          part.push_back(SplatRef{i, j, k, static_cast<int32_t>(r), region, share});
+        }
+      }
+    }
+  });
+  {
+    uint64_t cached_key = ~uint64_t{0};
+    int32_t cached_block = -1;
+    for (std::vector<SplatRef>& part : parts) {
+      for (SplatRef& s : part) {
+        // A region created by an earlier splat of this frame is found here, not re-created.
+        if (s.region == kMissing) s.region = RegionOf(s.i, s.j, s.k, true, cached_key, cached_block);
+      }
+    }
+  }
+  const float max_weight = static_cast<float>(options.capped_mean_max_weight);
+  std::vector<std::vector<Record>> chunk_records(num_threads);
+  std::vector<int> chunk_touched(num_threads, 0);
+  internal::RunChunks(num_threads, [&](int chunk) {
+    std::vector<int32_t> touched;
+    for (const std::vector<SplatRef>& part : parts) {
+      for (const SplatRef& splat : part) {
+        if (splat.region < 0 || (splat.region >> 6) % num_threads != chunk) continue;
+        const Ray& ray = fused[splat.ray];
+        FrameSum& s = frame_sums[splat.region];
+        if (s.weight == 0) touched.push_back(splat.region);
+        const float wc = splat.share * ray.confidence;
+        s.weight += splat.share;
         s.weight_confidence += wc;
         s.surface += wc * ray.surface_c;
         s.apparent += wc * ray.apparent_c;
       }
     }
+    std::vector<Record>& frame_records = chunk_records[chunk];
+    if (options.keep_observations) frame_records.reserve(touched.size());
+    for (int32_t r : touched) UpdateRegion(r, max_weight, frame_records);
+    chunk_touched[chunk] = static_cast<int>(touched.size());
+  });
+  for (int chunk = 0; chunk < num_threads; ++chunk) {
+    record.regions_updated += chunk_touched[chunk];
+    num_records += chunk_records[chunk].size();
+    if (!chunk_records[chunk].empty()) records.push_back(std::move(chunk_records[chunk]));
   }
-  const float max_weight = static_cast<float>(options.capped_mean_max_weight);
-  std::vector<Record> frame_records;
-  if (options.keep_observations) frame_records.reserve(touched.size());
-  for (int32_t r : touched) {
-    FrameSum& s = frame_sums[r];
-    const float confidence = s.weight_confidence / s.weight;
-    const float surface = s.surface / s.weight_confidence;
-    const float apparent = s.apparent / s.weight_confidence;
-    s = FrameSum();
-    Region& region = regions[r];
-    region.latest_surface_c = surface;
-    region.latest_apparent_c = apparent;
-    region.latest_confidence = confidence;
-    if (region.views < std::numeric_limits<uint16_t>::max()) ++region.views;
-    const float n = region.views;
-    const float delta = surface - region.mean_surface_c;
-    region.mean_surface_c += delta / n;
-    region.m2_surface += delta * (surface - region.mean_surface_c);
-    region.mean_apparent_c += (apparent - region.mean_apparent_c) / n;
-    region.mean_confidence += (confidence - region.mean_confidence) / n;
-    double capped_value = region.capped_surface_c, capped_weight = region.capped_weight;
-    CappedMeanUpdate(max_weight, surface, capped_value, capped_weight);
-    double capped_apparent = region.capped_apparent_c, apparent_weight = region.capped_weight;
-    CappedMeanUpdate(max_weight, apparent, capped_apparent, apparent_weight);
-    region.capped_surface_c = static_cast<float>(capped_value);
-    region.capped_apparent_c = static_cast<float>(capped_apparent);
-    region.capped_weight = static_cast<float>(capped_weight);
-    double value_a = region.online_surface_c, confidence_a = region.online_confidence;
-    const double q = OnlineUpdate(options.recency_bias, surface, confidence, value_a, confidence_a);
-    region.online_surface_c = static_cast<float>(value_a);
-    region.online_confidence = static_cast<float>(confidence_a);
-    region.online_apparent_c = static_cast<float>(
-        q >= 1 ? static_cast<double>(apparent)
-               : q * static_cast<double>(apparent) + (1 - q) * static_cast<double>(region.online_apparent_c));
-    if (options.keep_observations) frame_records.push_back(Record{r, surface, apparent, confidence});
-  }
-  num_records += frame_records.size();
-  if (!frame_records.empty()) records.push_back(std::move(frame_records));
-  record.regions_updated = static_cast<int>(touched.size());
+}
+
+void ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<Record>& frame_records) {
+  FrameSum& s = frame_sums[r];
+  const float confidence = s.weight_confidence / s.weight;
+  const float surface = s.surface / s.weight_confidence;
+  const float apparent = s.apparent / s.weight_confidence;
+  s = FrameSum();
+  Region& region = regions[r];
+  region.latest_surface_c = surface;
+  region.latest_apparent_c = apparent;
+  region.latest_confidence = confidence;
+  if (region.views < std::numeric_limits<uint16_t>::max()) ++region.views;
+  const float n = region.views;
+  const float delta = surface - region.mean_surface_c;
+  region.mean_surface_c += delta / n;
+  region.m2_surface += delta * (surface - region.mean_surface_c);
+  region.mean_apparent_c += (apparent - region.mean_apparent_c) / n;
+  region.mean_confidence += (confidence - region.mean_confidence) / n;
+  double capped_value = region.capped_surface_c, capped_weight = region.capped_weight;
+  CappedMeanUpdate(max_weight, surface, capped_value, capped_weight);
+  double capped_apparent = region.capped_apparent_c, apparent_weight = region.capped_weight;
+  CappedMeanUpdate(max_weight, apparent, capped_apparent, apparent_weight);
+  region.capped_surface_c = static_cast<float>(capped_value);
+  region.capped_apparent_c = static_cast<float>(capped_apparent);
+  region.capped_weight = static_cast<float>(capped_weight);
+  double value_a = region.online_surface_c, confidence_a = region.online_confidence;
+  const double q = OnlineUpdate(options.recency_bias, surface, confidence, value_a, confidence_a);
+  region.online_surface_c = static_cast<float>(value_a);
+  region.online_confidence = static_cast<float>(confidence_a);
+  region.online_apparent_c = static_cast<float>(
+      q >= 1 ? static_cast<double>(apparent)
+             : q * static_cast<double>(apparent) + (1 - q) * static_cast<double>(region.online_apparent_c));
+  if (options.keep_observations) frame_records.push_back(Record{r, surface, apparent, confidence});
 }
 
 namespace {
@@ -507,7 +611,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
 
   start = std::chrono::steady_clock::now();
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
-  const std::vector<Ray> fused = m.ShadeRays(map, image, world_from_thermal, linear_velocity_mps,
+  const std::vector<Ray>& fused = m.ShadeRays(map, image, world_from_thermal, linear_velocity_mps,
                                              angular_velocity_radps, operating, record);
   m.Splat(fused, record);
   record.fuse_ms = Ms(start);
@@ -640,8 +744,8 @@ int64_t ThermalFusion::OfflineRejected() const { return impl_->offline_rejected;
 
 size_t ThermalFusion::MemoryBytes() const {
   const Impl& m = *impl_;
-  return m.regions.capacity() * sizeof(Region) + m.frame_sums.capacity() * sizeof(FrameSum) +
-         m.blocks.capacity() * sizeof(m.blocks[0]) + m.block_index.size() * 32 +
+  return m.regions.CapacityBytes() + m.frame_sums.CapacityBytes() + m.blocks.CapacityBytes() +
+         m.block_index.size() * 32 +
          m.num_records * sizeof(Record);
 }
 
