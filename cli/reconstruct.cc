@@ -501,6 +501,10 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-ray-confidence", t.min_ray_confidence, "rays below this confidence are not fused")
       ->capture_default_str();
+  app.add_option("--thermal-max-views", t.max_views_per_region,
+                 "views per surface region kept for the offline estimate, the most confident ones "
+                 "(bounds memory on long scans); 0: all")
+      ->capture_default_str();
   app.add_option("--thermal-vignetting", t.vignetting,
                  "thermal radiance lost at the image corners after the camera's own calibration "
                  "(pixels read L (1 - v r^2)), corrected before fusion; 0: none")

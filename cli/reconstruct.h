@@ -48,6 +48,7 @@ struct ThermalCommandResult {
   int fused = 0, frozen = 0, no_pose = 0, no_surface = 0, missing = 0, after_end = 0;
   int64_t rays = 0, hits = 0, rays_fused = 0;  // over all frames given to fusion
   size_t regions = 0, observations = 0, memory_bytes = 0;
+  size_t observations_dropped = 0;  // by ThermalFusionOptions::max_views_per_region
   int64_t offline_rejected = 0;
   double seconds = 0, load_seconds = 0, finish_seconds = 0;
   double raycast_ms = 0, fuse_ms = 0;  // mean per fused frame

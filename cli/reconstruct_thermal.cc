@@ -120,6 +120,7 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
   }
   r.regions = fusion.NumRegions();
   r.observations = fusion.NumObservations();
+  r.observations_dropped = fusion.NumObservationsDropped();
   r.memory_bytes = fusion.MemoryBytes();
   r.offline_rejected = fusion.OfflineRejected();
   r.method = reconstruct::ThermalMethodName(fusion.options().method);
@@ -178,6 +179,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("vignetting", o.vignetting)
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
+      .Int("max_views_per_region", o.max_views_per_region)
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
   summary.Int("frames", r.frames)
@@ -193,6 +195,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("fraction_fused", r.rays > 0 ? static_cast<double>(r.rays_fused) / r.rays : 0)
       .Int("regions", static_cast<int64_t>(r.regions))
       .Int("observations", static_cast<int64_t>(r.observations))
+      .Int("observations_dropped", static_cast<int64_t>(r.observations_dropped))
       .Int("offline_rejected", r.offline_rejected)
       .Int("vertices_with_temperature", r.vertices_observed)
       .Int("memory_bytes", static_cast<int64_t>(r.memory_bytes));
@@ -262,9 +265,12 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
       "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f)\n",
       r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
       r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms);
-  out += core::StringPrintf("           %d vertices with temperature (%s), %zu regions, %.1f MB; emissivity: %s\n",
-                            r.vertices_observed, r.method.c_str(), r.regions, r.memory_bytes / 1e6,
-                            r.emissivity.c_str());
+  out += core::StringPrintf("           %d vertices with temperature (%s), %zu regions, %.1f MB", r.vertices_observed,
+                            r.method.c_str(), r.regions, r.memory_bytes / 1e6);
+  if (r.observations_dropped > 0) {
+    out += core::StringPrintf(" (%zu least confident views dropped)", r.observations_dropped);
+  }
+  out += "; emissivity: " + r.emissivity + "\n";
   if (!r.evaluation.empty()) {
     out += "           vs truth/scene.ply (K)   all: RMSE    p95   bias | uniform: RMSE    p95   bias | "
            "camera gain/offset removed: RMSE    p95 | emissivity < 0.5: RMSE   bias\n";

@@ -60,9 +60,17 @@ struct ThermalFusionOptions {
   double vignetting = 0;
   // The estimate written to temperature_c / temperature_apparent_c.
   ThermalMethod method = ThermalMethod::kOffline;
-  // Keep every per-frame region observation for the offline estimate (16 bytes each, about
-  // 1 MB per thermal frame at 320×240); false: only the streaming rules (live use).
+  // Keep the per-frame region observations for the offline estimate (16 bytes each, 2–5 MB
+  // per 320×240 thermal frame at 5 mm voxels); false: only the streaming rules (live use).
   bool keep_observations = true;
+  // The offline estimate uses each region's max_views_per_region most confident views
+  // (ties: the earlier), and fewer are kept: the kept observations are compacted to them
+  // whenever they have doubled since the last compaction, so memory grows with the surface
+  // scanned, not with the scan's length (unbounded, a 30 Hz camera keeps 0.8–1 GB per 4 s of
+  // scanning). 64: two seconds of views at 30 Hz, enough for the median and MAD of
+  // the robust estimate; the views dropped are the least confident ones, which weigh least.
+  // 0: every view (memory unbounded). >= 0.
+  int max_views_per_region = 64;
   // Depth range of the thermal rays, m (the pipeline sets it from its own).
   double min_depth_m = 0.3;  // >= 0
   double max_depth_m = 5.0;  // > min_depth_m
@@ -154,6 +162,8 @@ class ThermalFusion {
   const ThermalFusionOptions& options() const;
   size_t NumRegions() const;     // voxels with at least one observation
   size_t NumObservations() const;  // kept for the offline estimate
+  // Observations dropped by max_views_per_region so far (at compactions and Finish).
+  size_t NumObservationsDropped() const;
   size_t MemoryBytes() const;
   // Rejections by the offline estimator over all regions (after Finish).
   int64_t OfflineRejected() const;

@@ -251,6 +251,76 @@ TEST(ThermalFusionTest, ResultDoesNotDependOnThreadCount) {
   }
 }
 
+// max_views_per_region: the offline estimate keeps each region's most confident views, and
+// which survive must not depend on when the kept observations were compacted (here: after
+// every frame, by Finish, vs once at the end); a cap above the views changes nothing.
+TEST(ThermalFusionTest, ViewCapKeepsTheMostConfidentViewsWhateverTheCompactionTimes) {
+  const core::Rig rig = ThermalRig(true);
+  const TsdfVolume volume = PlaneVolume();
+  const int frames = 30;
+  const Views views = Sweep(frames, 0.2);
+  struct Run {
+    int cap;
+    bool finish_every_frame;
+    PointTemperatures offline;
+    size_t regions = 0, kept = 0, dropped = 0;
+  };
+  std::vector<Run> runs = {{6, false, {}}, {6, true, {}}, {0, false, {}}, {1000, true, {}}};
+  for (Run& run : runs) {
+    ThermalFusionOptions options = TestOptions();
+    options.max_views_per_region = run.cap;
+    ThermalFusion fusion(rig, options, EmissivityMap(*rig.thermal_settings), {});
+    std::mt19937_64 rng(11);
+    for (int i = 0; i < frames; ++i) {
+      const double t = views.thermal_times_s[i];
+      const core::Rigid3d world_from_thermal = *views.trajectory.At(t) * rig.depth_from_thermal;
+      fusion.AddFrame(volume, {i, t, RenderThermal(rig, world_from_thermal, 0.05, rng)}, views.trajectory);
+      if (run.finish_every_frame) fusion.Finish();
+    }
+    fusion.Finish();
+    run.offline = fusion.Sample(PlanePoints(), ThermalMethod::kOffline);
+    run.regions = fusion.NumRegions();
+    run.kept = fusion.NumObservations();
+    run.dropped = fusion.NumObservationsDropped();
+  }
+  auto same = [](const PointTemperatures& a, const PointTemperatures& b) {
+    for (size_t i = 0; i < a.surface_c.size(); ++i) {
+      if (std::memcmp(&a.surface_c[i], &b.surface_c[i], sizeof(float)) != 0 || a.views[i] != b.views[i] ||
+          std::memcmp(&a.std_c[i], &b.std_c[i], sizeof(float)) != 0) {
+        return false;
+      }
+    }
+    return true;
+  };
+  // Capped: bounded, and views were dropped (30 frames see most regions > 6 times).
+  EXPECT_LE(runs[0].kept, 6 * runs[0].regions);
+  EXPECT_GT(runs[0].dropped, runs[0].kept / 2);
+  EXPECT_EQ(runs[0].kept + runs[0].dropped, runs[2].kept);
+  EXPECT_EQ(runs[0].kept, runs[1].kept);
+  EXPECT_EQ(runs[0].dropped, runs[1].dropped);
+  EXPECT_TRUE(same(runs[0].offline, runs[1].offline));
+  EXPECT_EQ(runs[3].dropped, 0u);
+  EXPECT_TRUE(same(runs[2].offline, runs[3].offline));
+  // The capped estimate differs from the full one, but by no more than the noise of six
+  // 0.05 K views (≈ 0.02 K per point; 0.1 K allows for the regions' few rays per view).
+  EXPECT_FALSE(same(runs[0].offline, runs[2].offline));
+  double max_difference = 0, confidence_capped = 0, confidence_full = 0;
+  int compared = 0;
+  for (size_t i = 0; i < runs[0].offline.surface_c.size(); ++i) {
+    if (!std::isfinite(runs[0].offline.surface_c[i]) || !std::isfinite(runs[2].offline.surface_c[i])) continue;
+    max_difference = std::max(max_difference, std::abs(static_cast<double>(runs[0].offline.surface_c[i]) -
+                                                       static_cast<double>(runs[2].offline.surface_c[i])));
+    confidence_capped += static_cast<double>(runs[0].offline.confidence[i]);
+    confidence_full += static_cast<double>(runs[2].offline.confidence[i]);
+    ++compared;
+  }
+  EXPECT_GT(compared, static_cast<int>(runs[0].offline.surface_c.size()) / 2);
+  EXPECT_LT(max_difference, 0.1);
+  // The views kept are the most confident: their mean confidence is above that of all views.
+  EXPECT_GT(confidence_capped, confidence_full * 1.01) << confidence_capped / compared << " vs "
+                                                        << confidence_full / compared;
+}
+
 TEST(ThermalFusionTest, UnobservedPointsAreMarkedNotZero) {
   const core::Rig rig = ThermalRig(false);
   const TsdfVolume volume = PlaneVolume();

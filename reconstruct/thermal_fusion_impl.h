@@ -1,0 +1,243 @@
+#pragma once
+
+// Internal to thermal_fusion.cc and thermal_fusion_regions.cc: the per-region state, the
+// per-frame scratch and ThermalFusion::Impl.
+
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <absl/container/flat_hash_map.h>
+#include <opencv2/core/mat.hpp>
+
+#include "core/radiometry.h"
+#include "reconstruct/thermal_fusion.h"
+#include "reconstruct/tsdf_volume_impl.h"
+
+namespace hw::reconstruct {
+
+namespace thermal_internal {
+
+inline constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// One region (voxel): every method's state side by side (thermal_fusion.h). 'Surface' is the
+// emissivity-corrected temperature, 'apparent' the camera's reading.
+struct Region {
+  // Latest observation.
+  float latest_surface_c = kNaN, latest_apparent_c = kNaN, latest_confidence = 0;
+  // Plain mean (Welford, so that the spread of tens of views at ~300 K stays exact in float).
+  uint16_t views = 0;
+  float mean_surface_c = 0, mean_apparent_c = 0, mean_confidence = 0, m2_surface = 0;
+  // voxblox's capped running mean.
+  float capped_surface_c = 0, capped_apparent_c = 0, capped_weight = 0;
+  // The paper's online rule (confidence < 0: not yet observed).
+  float online_surface_c = kNaN, online_apparent_c = kNaN, online_confidence = -1;
+  // Offline robust estimate (Finish).
+  uint16_t offline_views = 0;
+  float offline_surface_c = kNaN, offline_apparent_c = kNaN, offline_confidence = 0,
+        offline_std_c = kNaN;
+};
+
+// One region's merged observation in one frame, kept for the offline estimate.
+struct Record {
+  int32_t region;
+  float surface_c, apparent_c, confidence;
+};
+
+// Accumulates a frame's rays per region before the update rules run once per region and
+// frame: several rays of one frame are one view, not several.
+struct FrameSum {
+  float weight = 0, weight_confidence = 0, surface = 0, apparent = 0;
+};
+
+// A fused ray, ready to splat: its hit and the half-axes of its pixel's footprint on the
+// surface (world frame, m): across the ray, distance / f; along the surface's slope, that
+// divided by cos θ.
+struct Ray {
+  Eigen::Vector3f point_in_world;
+  Eigen::Vector3f footprint_u, footprint_v;
+  float confidence, surface_c, apparent_c;
+};
+
+// A growable array whose elements never move: chunks of 2^kShift value-initialised
+// elements. A std::vector of regions (~700k, 50 MB on a 2 s scan) copied itself on every
+// doubling, faulting the new copy's pages in: a quarter of the fusion's time on that scan.
+template <class T, int kShift>
+class ChunkedVector {
+ public:
+  T& operator[](size_t i) { return chunks_[i >> kShift][i & kMask]; }
+  const T& operator[](size_t i) const { return chunks_[i >> kShift][i & kMask]; }
+  size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  // Appends a value-initialised element; returns its index.
+  size_t Grow() {
+    if ((size_ >> kShift) == chunks_.size()) chunks_.push_back(std::make_unique<T[]>(kChunk));
+    return size_++;
+  }
+  size_t CapacityBytes() const { return chunks_.size() * kChunk * sizeof(T); }
+
+ private:
+  static constexpr size_t kChunk = size_t{1} << kShift, kMask = kChunk - 1;
+  std::vector<std::unique_ptr<T[]>> chunks_;
+  size_t size_ = 0;
+};
+
+// The region slots of one block's voxels (region index, -1: none yet).
+struct BlockRegions {
+  std::array<int32_t, kBlockVoxels> slot;
+  BlockRegions() { slot.fill(-1); }
+};
+
+// One thread's share of Impl::ShadeRays.
+struct ShadePart {
+  std::vector<Ray> rays;
+  int hits = 0, low_confidence = 0, no_normal = 0, no_surface = 0;
+  double confidence_sum = 0;
+  void Clear() {
+    rays.clear();
+    hits = low_confidence = no_normal = no_surface = 0;
+    confidence_sum = 0;
+  }
+};
+
+// One splat of a ray (Impl::Splat).
+struct SplatRef {
+  int32_t i, j, k;  // voxel
+  int32_t ray;      // index in the frame's fused rays
+  int32_t region;   // < 0: to be created (-1) or outside the key range (-2)
+  float share;      // 1 / splats of the ray
+};
+
+// Compact() runs when it would drop at least half of the kept observations and at least
+// this many (1 M, 16 MB): its cost (a pass over them, ~65 ns each on the 2-core machine,
+// mostly page faults of the new copy) is then paid by the observations it frees.
+inline constexpr size_t kMinCompactDrop = size_t{1} << 20;
+
+// Splats per footprint axis at most: a ray whose footprint spans more voxels (a grazing view
+// from afar) covers its centre 8 voxels wide and leaves the rest to its neighbours' rays.
+inline constexpr int kMaxFootprintSplats = 8;
+
+}  // namespace thermal_internal
+
+using namespace thermal_internal;  // NOLINT: internal header, two sources
+
+struct ThermalFusion::Impl {
+  core::Rig rig;
+  ThermalFusionOptions options;
+  EmissivityMap emissivity;
+  std::vector<double> ffc_timestamps_s;
+  core::BandRadiance band;
+  CameraRays rays;
+  std::vector<float> distortion_confidence;  // c2 per pixel (fixed for the camera)
+  int num_rays = 0;                          // pixels with a ray through the lens model
+  std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
+  float voxel_m = 0;
+
+  // Regions: blocks of kBlockVoxels slots (region index or -1), keyed like the TSDF's.
+  absl::flat_hash_map<uint64_t, int32_t> block_index;  // SwissTable, as the TSDF's index
+  ChunkedVector<BlockRegions, 8> blocks;  // 512 KB chunks
+  ChunkedVector<Region, 16> regions;       // 4.7 MB chunks
+  ChunkedVector<FrameSum, 16> frame_sums;  // per region, zero between frames
+  // Per fused frame (and thread of Splat), its region observations: chunks, so that keeping
+  // them never copies what is already kept (one vector would move gigabytes each time it grows).
+  std::vector<std::vector<Record>> records;
+  size_t num_records = 0;
+  size_t records_dropped = 0;  // by max_views_per_region
+  // Kept observations Compact() would drop now: one per view of a region beyond
+  // max_views_per_region since the last compaction (exact: a region keeps min(views, cap)).
+  size_t records_droppable = 0;
+  std::vector<ThermalFrameRecord> frames;
+  // Scratch of ShadeRays and Splat, kept between frames: fresh buffers each frame cost more
+  // in page faults than the work they hold (measured: half of Splat's time).
+  std::vector<ShadePart> shade_scratch;
+  std::vector<Ray> fused_scratch;
+  std::vector<std::vector<SplatRef>> splat_scratch;
+  cv::Mat previous_image;
+  bool finished = false;
+  int64_t offline_rejected = 0;
+
+  Impl(const core::Rig& r, const ThermalFusionOptions& o, EmissivityMap e, std::vector<double> ffc)
+      : rig(r), options(o), emissivity(std::move(e)), ffc_timestamps_s(std::move(ffc)),
+        band(r.thermal_settings->spectral_band_um[0], r.thermal_settings->spectral_band_um[1]),
+        rays(*r.thermal) {}
+
+  // Region of voxel (i, j, k); creates it when `create`. -1 when absent (or out of range).
+  int32_t RegionOf(int i, int j, int k, bool create, uint64_t& cached_key, int32_t& cached_block) {
+    if (!internal::KeyInRange(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift)) return -1;
+    const uint64_t key = internal::PackKey(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift);
+    if (key != cached_key || cached_block < 0) {
+      auto it = block_index.find(key);
+      if (it == block_index.end()) {
+        if (!create) return -1;
+        it = block_index.emplace(key, static_cast<int32_t>(blocks.Grow())).first;
+      }
+      cached_key = key;
+      cached_block = it->second;
+    }
+    const int slot = (i & (kBlockSide - 1)) + kBlockSide * ((j & (kBlockSide - 1)) + kBlockSide * (k & (kBlockSide - 1)));
+    int32_t& region = blocks[cached_block].slot[slot];
+    if (region < 0 && create) {
+      region = static_cast<int32_t>(regions.Grow());
+      frame_sums.Grow();
+    }
+    return region;
+  }
+
+  // The region of voxel (i, j, k), or -1 (RegionOf without creating, for readers).
+  int32_t FindRegion(int i, int j, int k, uint64_t& cached_key, int32_t& cached_block) const {
+    if (!internal::KeyInRange(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift)) return -1;
+    const uint64_t key = internal::PackKey(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift);
+    if (key != cached_key || cached_block < 0) {
+      const auto it = block_index.find(key);
+      if (it == block_index.end()) return -1;
+      cached_key = key;
+      cached_block = it->second;
+    }
+    return blocks[cached_block].slot[(i & (kBlockSide - 1)) +
+                                kBlockSide * ((j & (kBlockSide - 1)) + kBlockSide * (k & (kBlockSide - 1)))];
+  }
+
+  // The 8 voxels around a point (voxel centres at integer multiples of voxel_m) and their
+  // trilinear weights.
+  void Corners(const Eigen::Vector3f& p, std::array<Eigen::Vector3i, 8>& voxel,
+               std::array<float, 8>& weight) const {
+    const Eigen::Vector3f g = p / voxel_m;
+    const Eigen::Vector3i base(FloorToInt(g.x()), FloorToInt(g.y()), FloorToInt(g.z()));
+    const Eigen::Vector3f f = g - base.cast<float>();
+    for (int c = 0; c < 8; ++c) {
+      const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+      voxel[c] = base + Eigen::Vector3i(dx, dy, dz);
+      weight[c] = (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
+    }
+  }
+
+  double TimeSinceFfc(double thermal_timestamp_s) const {
+    auto it = std::upper_bound(ffc_timestamps_s.begin(), ffc_timestamps_s.end(), thermal_timestamp_s);
+    if (it == ffc_timestamps_s.begin()) return std::numeric_limits<double>::quiet_NaN();
+    return thermal_timestamp_s - *(it - 1);
+  }
+
+  // Computes the rays of one frame (parallel); returns the fused ones (valid until the
+  // next call).
+  const std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+                                    const core::Rigid3d& world_from_thermal,
+                                    const Eigen::Vector3d& linear_velocity_mps,
+                                    const Eigen::Vector3d& angular_velocity_radps, double operating,
+                                    ThermalFrameRecord& record);
+  void Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record);
+  // Applies every update rule to region r from its frame sum (then zeroed); appends its
+  // observation to frame_records when observations are kept. True when the region now has
+  // more views than max_views_per_region (> 0).
+  bool UpdateRegion(int32_t r, float max_weight, std::vector<Record>& frame_records);
+  // Groups the kept observations by region into one chunk (stable: each region's stay in
+  // arrival order), keeping each region's max_views_per_region most confident (ties: the
+  // earlier); `begin` (optional) receives each region's offset into that chunk (n + 1).
+  // Which views survive does not depend on when it runs: the best k of a union are the best
+  // k of (the best k of the first part) and the rest.
+  void Compact(std::vector<uint32_t>* begin);
+};
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,194 @@
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "reconstruct/thermal_fusion_impl.h"
+#include "reconstruct/thermal_update.h"
+#include "reconstruct/tsdf_volume_impl.h"
+
+// ThermalFusion's regions: splatting a frame's rays onto voxels, the update rules, and the
+// compaction of the kept observations (thermal_fusion.h).
+
+namespace hw::reconstruct {
+
+void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record) {
+  // Four passes, so that the hash lookups, the accumulation and the update rules run on
+  // every thread while the result stays exactly that of one thread taking the splats in ray
+  // order: (1) per ray chunk, each splat's voxel and its region if it exists (read-only
+  // lookups); (2) one thread creates the missing regions in splat order (so region indices
+  // do not depend on the thread count); (3) each thread sums, in splat order, the splats of
+  // the regions it owns (runs of 64 region indices dealt round-robin, so that
+  // two threads never write the same cache line); (4) each thread runs the update rules
+  // on its own regions.
+  const int num_threads = std::max(1, std::min(internal::ResolveThreads(options.num_threads),
+                                               static_cast<int>(fused.size() / 1024) + 1));
+  constexpr int32_t kMissing = -1, kOutOfRange = -2;
+  std::vector<std::vector<SplatRef>>& parts = splat_scratch;
+  parts.resize(num_threads);
+  const size_t n_rays = fused.size();
+  internal::RunChunks(num_threads, [&](int chunk) {
+    std::vector<SplatRef>& part = parts[chunk];
+    part.clear();
+    uint64_t cached_key = ~uint64_t{0};
+    int32_t cached_block = -1;
+    for (size_t r = chunk * n_rays / num_threads; r < (chunk + 1) * n_rays / num_threads; ++r) {
+      const Ray& ray = fused[r];
+      // A footprint wider than a voxel is covered by a grid of splats at most a voxel apart,
+      // so that a far or grazing view leaves no voxel between its rays unobserved.
+      const int nu = std::clamp(static_cast<int>(std::ceil(ray.footprint_u.norm() / voxel_m)), 1, kMaxFootprintSplats);
+      const int nv = std::clamp(static_cast<int>(std::ceil(ray.footprint_v.norm() / voxel_m)), 1, kMaxFootprintSplats);
+      const float share = 1.0f / static_cast<float>(nu * nv);
+      for (int a = 0; a < nu; ++a) {
+        for (int b = 0; b < nv; ++b) {
+          const Eigen::Vector3f point = ray.point_in_world +
+                                        ((a + 0.5f) / static_cast<float>(nu) - 0.5f) * ray.footprint_u +
+                                        ((b + 0.5f) / static_cast<float>(nv) - 0.5f) * ray.footprint_v;
+          // The nearest voxel takes it (a trilinear splat would touch 8, twice the surface's
+          // two layers of voxels, for no gain: Sample() interpolates between observed voxels).
+          const Eigen::Vector3f g = point / voxel_m;
+          const int i = FloorToInt(g.x() + 0.5f), j = FloorToInt(g.y() + 0.5f), k = FloorToInt(g.z() + 0.5f);
+          int32_t region = kOutOfRange;
+          if (internal::KeyInRange(i >> kBlockShift, j >> kBlockShift, k >> kBlockShift)) {
+            region = FindRegion(i, j, k, cached_key, cached_block);
+            if (region < 0) region = kMissing;
+          }
+          part.push_back(SplatRef{i, j, k, static_cast<int32_t>(r), region, share});
+        }
+      }
+    }
+  });
+  {
+    uint64_t cached_key = ~uint64_t{0};
+    int32_t cached_block = -1;
+    for (std::vector<SplatRef>& part : parts) {
+      for (SplatRef& s : part) {
+        // A region created by an earlier splat of this frame is found here, not re-created.
+        if (s.region == kMissing) s.region = RegionOf(s.i, s.j, s.k, true, cached_key, cached_block);
+      }
+    }
+  }
+  const float max_weight = static_cast<float>(options.capped_mean_max_weight);
+  std::vector<std::vector<Record>> chunk_records(num_threads);
+  std::vector<int> chunk_touched(num_threads, 0), chunk_beyond_cap(num_threads, 0);
+  internal::RunChunks(num_threads, [&](int chunk) {
+    std::vector<int32_t> touched;
+    for (const std::vector<SplatRef>& part : parts) {
+      for (const SplatRef& splat : part) {
+        if (splat.region < 0 || (splat.region >> 6) % num_threads != chunk) continue;
+        const Ray& ray = fused[splat.ray];
+        FrameSum& s = frame_sums[splat.region];
+        if (s.weight == 0) touched.push_back(splat.region);
+        const float wc = splat.share * ray.confidence;
+        s.weight += splat.share;
+        s.weight_confidence += wc;
+        s.surface += wc * ray.surface_c;
+        s.apparent += wc * ray.apparent_c;
+      }
+    }
+    std::vector<Record>& frame_records = chunk_records[chunk];
+    if (options.keep_observations) frame_records.reserve(touched.size());
+    int beyond_cap = 0;
+    for (int32_t r : touched) beyond_cap += UpdateRegion(r, max_weight, frame_records);
+    chunk_touched[chunk] = static_cast<int>(touched.size());
+    chunk_beyond_cap[chunk] = beyond_cap;
+  });
+  for (int chunk = 0; chunk < num_threads; ++chunk) {
+    record.regions_updated += chunk_touched[chunk];
+    num_records += chunk_records[chunk].size();
+    if (!chunk_records[chunk].empty()) records.push_back(std::move(chunk_records[chunk]));
+    records_droppable += chunk_beyond_cap[chunk];
+  }
+  if (records_droppable >= std::max(kMinCompactDrop, num_records / 2)) Compact(nullptr);
+}
+
+void ThermalFusion::Impl::Compact(std::vector<uint32_t>* begin_out) {
+  assert(num_records < std::numeric_limits<uint32_t>::max());
+  const size_t n_regions = regions.size();
+  std::vector<uint32_t> begin(n_regions + 1, 0);
+  for (const std::vector<Record>& chunk : records) {
+    for (const Record& r : chunk) ++begin[r.region + 1];
+  }
+  for (size_t i = 0; i < n_regions; ++i) begin[i + 1] += begin[i];
+  std::vector<Record> grouped(num_records);
+  {
+    std::vector<uint32_t> next(begin.begin(), begin.end() - 1);
+    for (std::vector<Record>& chunk : records) {
+      for (const Record& r : chunk) grouped[next[r.region]++] = r;
+      std::vector<Record>().swap(chunk);  // released as soon as copied
+    }
+  }
+  records.clear();
+  const size_t cap = static_cast<size_t>(options.max_views_per_region);
+  if (cap > 0) {
+    // In place: the write position never passes the read position (w <= b, and the k-th
+    // survivor comes from b + order[k] >= b + k).
+    size_t w = 0;
+    std::vector<uint32_t> order;
+    for (size_t i = 0; i < n_regions; ++i) {
+      const size_t b = begin[i], e = begin[i + 1];
+      begin[i] = static_cast<uint32_t>(w);
+      if (e - b <= cap) {
+        std::copy(grouped.begin() + b, grouped.begin() + e, grouped.begin() + w);
+        w += e - b;
+        continue;
+      }
+      order.resize(e - b);
+      for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<uint32_t>(k);
+      std::nth_element(order.begin(), order.begin() + cap, order.end(), [&](uint32_t x, uint32_t y) {
+        const float cx = grouped[b + x].confidence, cy = grouped[b + y].confidence;
+        return cx > cy || (cx == cy && x < y);
+      });
+      std::sort(order.begin(), order.begin() + cap);
+      for (size_t k = 0; k < cap; ++k) grouped[w + k] = grouped[b + order[k]];
+      w += cap;
+      records_dropped += e - b - cap;
+    }
+    begin[n_regions] = static_cast<uint32_t>(w);
+    grouped.resize(w);
+    grouped.shrink_to_fit();
+  }
+  num_records = grouped.size();
+  records_droppable = 0;
+  if (!grouped.empty()) records.push_back(std::move(grouped));
+  if (begin_out) *begin_out = std::move(begin);
+}
+
+bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<Record>& frame_records) {
+  FrameSum& s = frame_sums[r];
+  const float confidence = s.weight_confidence / s.weight;
+  const float surface = s.surface / s.weight_confidence;
+  const float apparent = s.apparent / s.weight_confidence;
+  s = FrameSum();
+  Region& region = regions[r];
+  region.latest_surface_c = surface;
+  region.latest_apparent_c = apparent;
+  region.latest_confidence = confidence;
+  if (region.views < std::numeric_limits<uint16_t>::max()) ++region.views;
+  const float n = region.views;
+  const float delta = surface - region.mean_surface_c;
+  region.mean_surface_c += delta / n;
+  region.m2_surface += delta * (surface - region.mean_surface_c);
+  region.mean_apparent_c += (apparent - region.mean_apparent_c) / n;
+  region.mean_confidence += (confidence - region.mean_confidence) / n;
+  double capped_value = region.capped_surface_c, capped_weight = region.capped_weight;
+  CappedMeanUpdate(max_weight, surface, capped_value, capped_weight);
+  double capped_apparent = region.capped_apparent_c, apparent_weight = region.capped_weight;
+  CappedMeanUpdate(max_weight, apparent, capped_apparent, apparent_weight);
+  region.capped_surface_c = static_cast<float>(capped_value);
+  region.capped_apparent_c = static_cast<float>(capped_apparent);
+  region.capped_weight = static_cast<float>(capped_weight);
+  double value_a = region.online_surface_c, confidence_a = region.online_confidence;
+  const double q = OnlineUpdate(options.recency_bias, surface, confidence, value_a, confidence_a);
+  region.online_surface_c = static_cast<float>(value_a);
+  region.online_confidence = static_cast<float>(confidence_a);
+  region.online_apparent_c = static_cast<float>(
+      q >= 1 ? static_cast<double>(apparent)
+             : q * static_cast<double>(apparent) + (1 - q) * static_cast<double>(region.online_apparent_c));
+  if (!options.keep_observations) return false;
+  frame_records.push_back(Record{r, surface, apparent, confidence});
+  return options.max_views_per_region > 0 && region.views > options.max_views_per_region;
+}
+
+}  // namespace hw::reconstruct
