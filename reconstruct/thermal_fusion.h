@@ -122,7 +122,9 @@ struct PointTemperatures {
   std::vector<float> apparent_c;      // NaN where unobserved
   std::vector<float> confidence;      // 0 where unobserved
   std::vector<float> std_c;           // spread across views, NaN where unobserved
-  std::vector<uint16_t> views;        // frames that observed it, 0 where unobserved
+  // Frames that observed it (offline: the inlier views among the most confident kept,
+  // max_views_per_region at most), 0 where unobserved.
+  std::vector<uint16_t> views;
 };
 
 class ThermalFusion {
