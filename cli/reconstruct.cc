@@ -501,6 +501,10 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-ray-confidence", t.min_ray_confidence, "rays below this confidence are not fused")
       ->capture_default_str();
+  app.add_option("--thermal-edge-radius", t.edge_radius_px,
+                 "thermal pixels within this many pixels of a silhouette (a neighbour's hit farther or "
+                 "nearer than any surface fused could put it, or none) are not fused; 0: off")
+      ->capture_default_str();
   app.add_option("--thermal-max-views", t.max_views_per_region,
                  "views per surface region kept for the offline estimate, the most confident ones "
                  "(bounds memory on long scans); 0: all")

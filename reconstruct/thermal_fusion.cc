@@ -46,6 +46,7 @@ std::string ThermalFusionOptions::Check() const {
     return OptionFail("max_depth_m", max_depth_m, "finite and > min_depth_m");
   }
   if (!(vignetting >= 0 && vignetting < 1)) return OptionFail("vignetting", vignetting, "in [0, 1)");
+  if (!(edge_radius_px >= 0 && edge_radius_px <= 10)) return OptionFail("edge_radius_px", edge_radius_px, "in [0, 10]");
   if (max_views_per_region < 0) return OptionFail("max_views_per_region", max_views_per_region, ">= 0");
   if (num_threads < 0) return OptionFail("num_threads", num_threads, ">= 0");
   return "";
@@ -76,6 +77,36 @@ const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, cons
   const Eigen::Vector3d origin = world_from_thermal.translation;
   const double fx = rig.thermal->fx, fy = rig.thermal->fy;
   const ThermalConfidenceOptions& co = options.confidence;
+  // Each pixel's range to its hit (NaN: none, or no ray through the lens), for the depth-edge
+  // test, which reads the neighbouring rows too: a pass of its own.
+  std::vector<float>& range = range_scratch;
+  range.resize(size_t(width) * height);
+  internal::RunChunks(num_threads, [&](int chunk) {
+    for (int y = chunk * height / num_threads; y < (chunk + 1) * height / num_threads; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const size_t i = map.Index(x, y);
+        range[i] = IsValid(map.points[i]) ? (map.points[i] - origin.cast<float>()).norm() : kNaN;
+      }
+    }
+  });
+  const int edge_radius = options.edge_radius_px;
+  const float tan_max_angle = static_cast<float>(std::tan(options.confidence.max_angle_deg * M_PI / 180));
+  // True when a pixel within edge_radius of (x, y) that has a ray through the lens met the
+  // model farther from range r than a surface at the largest angle fused could (r·α·tan θ,
+  // α the rays' angle: the pixel's angular size times their distance in pixels), or not at
+  // all. Pixels beyond the image or without a ray are no edge: the border is no silhouette.
+  auto near_depth_edge = [&](int x, int y, float r) {
+    const float per_px = r * pixel_angle_rad[map.Index(x, y)] * tan_max_angle;
+    for (int v = std::max(0, y - edge_radius); v <= std::min(height - 1, y + edge_radius); ++v) {
+      for (int u = std::max(0, x - edge_radius); u <= std::min(width - 1, x + edge_radius); ++u) {
+        if (!rays.valid(u, v)) continue;
+        const float other = range[map.Index(u, v)];
+        const float limit = per_px * std::hypot(static_cast<float>(u - x), static_cast<float>(v - y));
+        if (!(std::abs(other - r) <= limit)) return true;  // NaN (no hit) included
+      }
+    }
+    return false;
+  };
   internal::RunChunks(num_threads, [&](int chunk) {
     ShadePart& part = parts[chunk];
     for (int y = chunk * height / num_threads; y < (chunk + 1) * height / num_threads; ++y) {
@@ -86,6 +117,10 @@ const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, cons
         ++part.hits;
         if (!IsValid(map.normals[i])) {
           ++part.no_normal;
+          continue;
+        }
+        if (edge_radius > 0 && near_depth_edge(x, y, range[i])) {
+          ++part.depth_edge;
           continue;
         }
         const Eigen::Vector3d point = map.points[i].cast<double>();
@@ -146,6 +181,7 @@ const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, cons
     record.hits += part.hits;
     record.low_confidence += part.low_confidence;
     record.no_normal += part.no_normal;
+    record.depth_edge += part.depth_edge;
     record.no_surface_temperature += part.no_surface;
     confidence_sum += part.confidence_sum;
     fused.insert(fused.end(), part.rays.begin(), part.rays.end());
@@ -189,6 +225,25 @@ ThermalFusion::ThermalFusion(const core::Rig& rig, const ThermalFusionOptions& o
   m.vignetting_gain = VignettingGain(*rig.thermal, options.vignetting);
   const int width = m.rays.width(), height = m.rays.height();
   m.distortion_confidence.resize(size_t(width) * height);
+  // Each pixel's angular size: the larger angle to its right and lower neighbours' rays (the
+  // left and upper ones on the last column and row).
+  m.pixel_angle_rad.assign(size_t(width) * height, 0.0f);
+  auto ray_at = [&](int x, int y) {
+    const Eigen::Vector2f xy = m.rays.xy(x, y);
+    return Eigen::Vector3f(xy.x(), xy.y(), 1.0f).normalized();
+  };
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (!m.rays.valid(x, y)) continue;
+      float angle = 0;
+      const int nx = x + 1 < width ? x + 1 : x - 1, ny = y + 1 < height ? y + 1 : y - 1;
+      for (const auto& [u, v] : {std::pair{nx, y}, std::pair{x, ny}}) {
+        if (u < 0 || v < 0 || !m.rays.valid(u, v)) continue;
+        angle = std::max(angle, std::acos(std::clamp(ray_at(x, y).dot(ray_at(u, v)), -1.0f, 1.0f)));
+      }
+      m.pixel_angle_rad[size_t(y) * width + x] = angle;
+    }
+  }
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       m.num_rays += m.rays.valid(x, y);

@@ -94,11 +94,11 @@ struct BlockRegions {
 // One thread's share of Impl::ShadeRays.
 struct ShadePart {
   std::vector<Ray> rays;
-  int hits = 0, low_confidence = 0, no_normal = 0, no_surface = 0;
+  int hits = 0, low_confidence = 0, no_normal = 0, depth_edge = 0, no_surface = 0;
   double confidence_sum = 0;
   void Clear() {
     rays.clear();
-    hits = low_confidence = no_normal = no_surface = 0;
+    hits = low_confidence = no_normal = depth_edge = no_surface = 0;
     confidence_sum = 0;
   }
 };
@@ -132,6 +132,7 @@ struct ThermalFusion::Impl {
   core::BandRadiance band;
   CameraRays rays;
   std::vector<float> distortion_confidence;  // c2 per pixel (fixed for the camera)
+  std::vector<float> pixel_angle_rad;        // each pixel's angular size (depth-edge test)
   int num_rays = 0;                          // pixels with a ray through the lens model
   std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
   float voxel_m = 0;
@@ -154,6 +155,7 @@ struct ThermalFusion::Impl {
   // in page faults than the work they hold (measured: half of Splat's time).
   std::vector<ShadePart> shade_scratch;
   std::vector<Ray> fused_scratch;
+  std::vector<float> range_scratch;  // ShadeRays: each pixel's hit distance, NaN without one
   std::vector<std::vector<SplatRef>> splat_scratch;
   cv::Mat previous_image;
   bool finished = false;
