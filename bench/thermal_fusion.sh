@@ -16,6 +16,8 @@
 #   gt-poses     as truth, fused along groundtruth.txt (--poses) instead of tracking: the
 #                fusion's own error, without the tracker's drift misplacing the thermal rays
 #   gt-no-conf   as gt-poses, every confidence power 0 (C_R = 1: plain rays)
+#   gt-no-edge   as gt-poses, without the silhouette rule (--thermal-edge-radius 0) and the
+#                view cap (--thermal-max-views 0): the fusion as the table's first run had it
 # All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
 # reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
@@ -26,7 +28,7 @@
 # alone; OUT_DIR/summary.tsv holds the same rows.
 #
 # Usage: bench/thermal_fusion.sh [--build DIR] [--data DIR] [--out DIR] [--scans "A B"]
-#                                [--configs "A B"]  (default: all five above)
+#                                [--configs "A B"]  (default: all six above)
 #   scans: eqT4 (equipment, smooth), bdT4 (building, smooth), eqJ4 (equipment, jerky)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -35,7 +37,7 @@ build=build
 data=""
 out=""
 scans="eqT4 bdT4 eqJ4"
-configs="no-thermal rig truth gt-poses gt-no-conf"
+configs="no-thermal rig truth gt-poses gt-no-conf gt-no-edge"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build=$2; shift 2 ;;
@@ -81,6 +83,8 @@ for scan in $scans; do
       gt-poses) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt") ;;
       gt-no-conf) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt"
                          --confidence-powers 0,0,0,0,0) ;;
+      gt-no-edge) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt"
+                         --thermal-edge-radius 0 --thermal-max-views 0) ;;
     esac
     echo "== $scan $config" >&2
     "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"
