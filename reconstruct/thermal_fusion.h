@@ -77,9 +77,9 @@ struct ThermalFusionOptions {
   bool keep_observations = true;
   // The offline estimate uses each region's max_views_per_region most confident views
   // (ties: the earlier), and fewer are kept: the kept observations are compacted to them
-  // whenever they have doubled since the last compaction, so memory grows with the surface
-  // scanned, not with the scan's length (unbounded, a 30 Hz camera keeps 0.8–1 GB per 4 s of
-  // scanning). 64: two seconds of views at 30 Hz, enough for the median and MAD of
+  // whenever that would drop at least half of them, so memory is bounded per region rather
+  // than growing with the time spent on it (unbounded, a 30 Hz camera keeps 0.8–1 GB per
+  // 4 s of scanning). 64: two seconds of views at 30 Hz, enough for the median and MAD of
   // the robust estimate; the views dropped are the least confident ones, which weigh least.
   // 0: every view (memory unbounded). >= 0.
   int max_views_per_region = 64;
