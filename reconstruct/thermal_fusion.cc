@@ -95,14 +95,23 @@ const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, cons
   // model farther from range r than a surface at the largest angle fused could (r·α·tan θ,
   // α the rays' angle: the pixel's angular size times their distance in pixels), or not at
   // all. Pixels beyond the image or without a ray are no edge: the border is no silhouette.
+  // The neighbours' distances in pixels, once per frame rather than per pixel and neighbour.
+  const int window = 2 * edge_radius + 1;
+  std::vector<float> offset_px(size_t(window) * window);
+  for (int dv = -edge_radius; dv <= edge_radius; ++dv) {
+    for (int du = -edge_radius; du <= edge_radius; ++du) {
+      offset_px[size_t(dv + edge_radius) * window + (du + edge_radius)] =
+          std::hypot(static_cast<float>(du), static_cast<float>(dv));
+    }
+  }
   auto near_depth_edge = [&](int x, int y, float r) {
     const float per_px = r * pixel_angle_rad[map.Index(x, y)] * tan_max_angle;
     for (int v = std::max(0, y - edge_radius); v <= std::min(height - 1, y + edge_radius); ++v) {
+      const float* offsets = &offset_px[size_t(v - y + edge_radius) * window];
       for (int u = std::max(0, x - edge_radius); u <= std::min(width - 1, x + edge_radius); ++u) {
         if (!rays.valid(u, v)) continue;
         const float other = range[map.Index(u, v)];
-        const float limit = per_px * std::hypot(static_cast<float>(u - x), static_cast<float>(v - y));
-        if (!(std::abs(other - r) <= limit)) return true;  // NaN (no hit) included
+        if (!(std::abs(other - r) <= per_px * offsets[u - x + edge_radius])) return true;  // NaN: no hit
       }
     }
     return false;
@@ -367,11 +376,11 @@ void ThermalFusion::Finish() {
   m.Compact(&begin);
   const size_t n_regions = m.regions.size();
   std::vector<Observation> surface(m.num_records), apparent(m.num_records);
-  for (const std::vector<Record>& chunk : m.records) {  // one chunk, grouped
-    for (size_t k = 0; k < chunk.size(); ++k) {
-      surface[k] = Observation{chunk[k].surface_c, chunk[k].confidence};
-      apparent[k] = Observation{chunk[k].apparent_c, chunk[k].confidence};
-    }
+  assert(m.records.size() == 1);  // Compact leaves one chunk, grouped by region
+  const std::vector<Record>& grouped = m.records.front();
+  for (size_t k = 0; k < grouped.size(); ++k) {
+    surface[k] = Observation{grouped[k].surface_c, grouped[k].confidence};
+    apparent[k] = Observation{grouped[k].apparent_c, grouped[k].confidence};
   }
   const int num_threads = internal::ResolveThreads(m.options.num_threads);
   std::vector<int64_t> rejected(num_threads, 0);
