@@ -213,6 +213,7 @@ struct SynthArguments {
   std::string thermal_camera = "standard";
   std::string ffc_frames = "freeze";
   std::optional<double> duration_s;
+  std::optional<double> path_start_s, loop_duration_s;
   std::optional<double> depth_rate_hz, rgb_rate_hz, thermal_rate_hz;
   std::optional<double> rgb_offset_s, thermal_offset_s;
   std::optional<double> scene_scale;
@@ -256,6 +257,15 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   o.thermal.ffc_drop_frames = args.ffc_frames == "drop";
   o.rig_seed = args.rig_seed;
   if (args.duration_s) o.duration_s = *args.duration_s;
+  // A window of a full-size loop keeps the loop's operator pace unless told otherwise.
+  if (args.loop_duration_s && args.trajectory != "loop") {
+    throw UsageError("--loop-duration: applies to --trajectory loop only");
+  }
+  if (args.path_start_s && args.trajectory == "loop" && args.size == "full") {
+    o.loop_duration_s = kFullLoopDurationS;
+  }
+  if (args.path_start_s) o.path_start_s = *args.path_start_s;
+  if (args.loop_duration_s) o.loop_duration_s = *args.loop_duration_s;
   if (args.depth_rate_hz) o.depth_rate_hz = *args.depth_rate_hz;
   if (args.rgb_rate_hz) o.rgb_rate_hz = *args.rgb_rate_hz;
   if (args.thermal_rate_hz) o.thermal_rate_hz = *args.thermal_rate_hz;
@@ -446,6 +456,13 @@ int RunSynth(int argc, char** argv) {
                  "equipment back to its start, lasting --duration")
       ->check(CLI::IsMember({"smooth", "jerky", "loop"}))
       ->capture_default_str();
+  app.add_option("--path-start", args.path_start_s,
+                 "record a window of the motion starting this far into it, s, [0, 3600] (a loop's "
+                 "stops in between: --trajectory loop --path-start 3 --duration 30; a full-size "
+                 "loop then keeps its 90 s period)");
+  app.add_option("--loop-duration", args.loop_duration_s,
+                 "period of --trajectory loop, s, (0, 3600] (default: --duration, or 90 for a "
+                 "full-size window given by --path-start)");
   app.add_option("--depth-rate", args.depth_rate_hz, "depth frame rate, Hz (default 30)");
   app.add_option("--rgb-rate", args.rgb_rate_hz, "colour frame rate, Hz (default 30)");
   app.add_option("--thermal-camera", args.thermal_camera,
@@ -535,6 +552,8 @@ int RunSynth(int argc, char** argv) {
       // Scan-only options must not be silently ignored.
       const std::pair<bool, const char*> scan_only[] = {
           {args.trajectory != "smooth", "--trajectory"},
+          {args.path_start_s.has_value(), "--path-start"},
+          {args.loop_duration_s.has_value(), "--loop-duration"},
           {args.depth_rate_hz.has_value(), "--depth-rate"},
           {args.rgb_rate_hz.has_value(), "--rgb-rate"},
           {args.thermal_rate_hz.has_value(), "--thermal-rate"},

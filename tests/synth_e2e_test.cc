@@ -120,6 +120,9 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
       {"synth --session latency --image-scale 0.1" + out, "--image-scale"},
       {"synth --session latency --mask-polarity cold" + out, "--mask-polarity"},
       {"synth --scene equipment-small --mask-polarity cold" + out, "--mask-polarity"},
+      {"synth --scene equipment-small --loop-duration 30" + out, "--loop-duration: applies to --trajectory loop"},
+      {"synth --scene equipment-small --trajectory loop --path-start -2" + out, "path_start_s"},
+      {"synth --session latency --path-start 3" + out, "--path-start"},
   };
   for (const auto& [args, needle] : cases) {
     const hw::test::CommandResult r = Heatwave(args);
