@@ -26,7 +26,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
   const Fields f = reader.Mapping(node, "spots",
                                   {"detect", "reference", "ambient_c", "min_delta_k", "hot_above_c",
                                    "cold_below_c", "kinds", "boundary_fraction", "min_area_m2",
-                                   "max_area_m2", "background_radius_m", "min_ring_coverage",
+                                   "max_area_m2", "background_radius_m", "min_ring_coverage", "min_ring_area_ratio",
                                    "min_contrast_sigmas", "min_views", "max_candidates"});
   if (f.Has("detect")) {
     const std::string s = reader.String(f.Required("detect"), f.Path("detect"));
@@ -62,6 +62,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
   number("max_area_m2", &o->max_area_m2);
   number("background_radius_m", &o->background_radius_m);
   number("min_ring_coverage", &o->min_ring_coverage);
+  number("min_ring_area_ratio", &o->min_ring_area_ratio);
   number("min_contrast_sigmas", &o->min_contrast_sigmas);
   number("min_views", &o->min_views);
   if (f.Has("max_candidates")) o->max_candidates = reader.Integer(f.Required("max_candidates"), f.Path("max_candidates"));

@@ -33,6 +33,7 @@ TEST(AnalyzeConfigTest, ReadsEveryKey) {
       "  max_area_m2: 1\n"
       "  background_radius_m: 0.5\n"
       "  min_ring_coverage: 0.2\n"
+      "  min_ring_area_ratio: 3\n"
       "severity:\n"
       "  - {name: minor, min_delta_k: 1, action: Monitor}\n"
       "  - {name: serious, min_delta_k: 10}\n"
@@ -61,6 +62,7 @@ TEST(AnalyzeConfigTest, ReadsEveryKey) {
   EXPECT_FALSE(c.spots.find_cold);
   EXPECT_EQ(c.spots.boundary_fraction, 0.4);
   EXPECT_EQ(c.spots.min_ring_coverage, 0.2);
+  EXPECT_EQ(c.spots.min_ring_area_ratio, 3);
   ASSERT_EQ(c.spots.severity.size(), 2u);
   EXPECT_EQ(c.spots.severity[0].action, "Monitor");
   EXPECT_EQ(c.spots.severity[1].name, "serious");

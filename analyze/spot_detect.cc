@@ -127,6 +127,7 @@ struct Context {
   // each search: thousands of candidates on a million-vertex model must not each allocate.
   std::vector<double>* ring_distance;
   std::vector<int>* ring_source;
+  std::vector<char>* ring_seen;  // all-zero scratch of BorderNormal
 };
 
 // The connected set of vertices with field >= level containing `seed`, stopping (returns
@@ -180,15 +181,45 @@ double TailLength(const IsoRegion& iso, double level_minus_reference) {
   return std::abs(level_minus_reference) / gradient;
 }
 
+// The normal ring paths leaving the region at border vertex `b` are held to: the
+// area-weighted mean normal of the region's vertices reached from b over the region's
+// graph within ring_normal_radius_m (Euclidean) of it (SpotOptions). `in_region` marks
+// the region; `seen` is all-zero scratch, left all-zero.
+Eigen::Vector3d BorderNormal(const Context& c, int b, const std::vector<char>& in_region,
+                             std::vector<char>* seen) {
+  const double radius = c.options.ring_normal_radius_m;
+  const Eigen::Vector3d& centre = c.mesh.points_in_world[U(b)];
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::vector<int> stack = {b}, visited = {b};
+  (*seen)[U(b)] = 1;
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    sum += c.vertex_area[U(v)] * c.mesh.normals[U(v)];
+    for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
+      const int w = c.graph.neighbours[U(i)];
+      if ((*seen)[U(w)] || !in_region[U(w)]) continue;
+      if ((c.mesh.points_in_world[U(w)] - centre).norm() > radius) continue;
+      (*seen)[U(w)] = 1;
+      visited.push_back(w);
+      stack.push_back(w);
+    }
+  }
+  for (int v : visited) (*seen)[U(v)] = 0;
+  const double norm = sum.norm();
+  return norm > 0 ? Eigen::Vector3d(sum / norm) : c.mesh.normals[U(b)];
+}
+
 // The ring of surface between gap and gap + width from the region, over the mesh
-// (multi-source Dijkstra on the edge graph, which overestimates surface distances by a few
-// per cent: the ring sits slightly closer than asked). The ring stays on the spot's own
-// smooth surface: a path stops where the normal has turned by more than
-// ring_max_normal_change_deg from the normal of the region vertex it started from, so the
-// surroundings of a spot on a breaker face are that face, not the panel behind it, and a
-// whole part (a pane in its frame, an end shield on a motor) has no surroundings of its own.
-Ring MeasureRing(const Context& c, const std::vector<int>& region, double region_area_m2,
-                 double perimeter_m, double tail_m) {
+// (multi-source Dijkstra on the edge graph from the region's border, which overestimates
+// surface distances by a few per cent: the ring sits slightly closer than asked). The ring
+// stays on the spot's own smooth surface: a path stops where the normal has turned by more
+// than ring_max_normal_change_deg from the region's normal where it left it (BorderNormal),
+// so the surroundings of a spot on a breaker face are that face, not the panel behind it,
+// and a whole part (a pane in its frame, an end shield on a motor) has no surroundings of
+// its own. `in_region` marks the region's vertices.
+Ring MeasureRing(const Context& c, const std::vector<int>& region, const std::vector<char>& in_region,
+                 double region_area_m2, double perimeter_m, double tail_m) {
   const double r = std::sqrt(region_area_m2 / kPi);
   const double gap = std::max(c.options.ring_gap_m, c.options.ring_gap_tails * tail_m);
   const double width = std::max(c.options.ring_width_m, r);
@@ -197,12 +228,25 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, double region
   std::vector<double>& distance = *c.ring_distance;
   std::vector<int>& source = *c.ring_source;
   std::vector<int> touched;
+  std::vector<Eigen::Vector3d> border_normals;
   using Item = std::pair<double, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  // Every path leaves through a border vertex (one with a neighbour outside the region):
+  // only those start one; the interior is at distance 0 and never entered.
   for (int v : region) {
     distance[U(v)] = 0;
-    source[U(v)] = v;
     touched.push_back(v);
+  }
+  for (int v : region) {
+    bool border = false;
+    for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1] && !border; ++i) {
+      border = !in_region[U(c.graph.neighbours[U(i)])];
+    }
+    if (!border) continue;
+    source[U(v)] = static_cast<int>(border_normals.size());
+    border_normals.push_back(c.options.ring_normal_radius_m > 0
+                                 ? BorderNormal(c, v, in_region, c.ring_seen)
+                                 : c.mesh.normals[U(v)]);
     queue.emplace(0.0, v);
   }
   std::vector<std::pair<double, double>> samples;
@@ -215,7 +259,7 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, double region
       samples.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
       ring.area_m2 += c.vertex_area[U(v)];
     }
-    const Eigen::Vector3d& source_normal = c.mesh.normals[U(source[U(v)])];
+    const Eigen::Vector3d& source_normal = border_normals[U(source[U(v)])];
     for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
       const int w = c.graph.neighbours[U(i)];
       const double dw = d + (c.mesh.points_in_world[U(w)] - c.mesh.points_in_world[U(v)]).norm();
@@ -261,87 +305,6 @@ double RobustPeak(const Context& c, const std::vector<int>& region) {
   return sum > 0 ? weighted / sum : values.front().first;
 }
 
-}  // namespace
-
-std::vector<SeverityBand> NetaSeverityTable() {
-  return {{1.0, "possible", "Possible deficiency: warrants investigation"},
-          {4.0, "probable", "Probable deficiency: repair as time permits"},
-          {16.0, "major", "Major discrepancy: repair immediately"}};
-}
-
-std::string CheckSeverityTable(const std::vector<SeverityBand>& table) {
-  if (table.empty()) return "severity: must have at least one band";
-  for (size_t i = 0; i < table.size(); ++i) {
-    const std::string key = "severity[" + std::to_string(i) + "]";
-    if (table[i].name.empty()) return key + ".name: must not be empty";
-    if (!std::isfinite(table[i].min_delta_k) || table[i].min_delta_k < 0) {
-      return core::OptionFail(key + ".min_delta_k", table[i].min_delta_k, "finite and >= 0");
-    }
-    if (i > 0 && !(table[i].min_delta_k > table[i - 1].min_delta_k)) {
-      return core::OptionFail(key + ".min_delta_k", table[i].min_delta_k,
-                              "> the previous band's " + core::RoundedNumber(table[i - 1].min_delta_k) +
-                                  " (bands in increasing order)");
-    }
-  }
-  return "";
-}
-
-const SeverityBand* SeverityFor(const std::vector<SeverityBand>& table, double delta_k) {
-  const SeverityBand* band = nullptr;
-  for (const SeverityBand& b : table) {
-    if (std::abs(delta_k) >= b.min_delta_k) band = &b;
-  }
-  return band;
-}
-
-std::string SpotOptions::Check() const {
-  if (reference == Reference::kAmbient && !std::isfinite(ambient_c)) {
-    return core::OptionFail("ambient_c", ambient_c, "finite with reference ambient");
-  }
-  if (!(min_delta_k > 0) || !std::isfinite(min_delta_k)) return core::OptionFail("min_delta_k", min_delta_k, "> 0");
-  if (detect == Detect::kAbsolute) {
-    if (find_hot && !std::isfinite(hot_above_c)) {
-      return core::OptionFail("hot_above_c", hot_above_c, "finite with detect absolute (or find no hot spots)");
-    }
-    if (find_cold && !std::isfinite(cold_below_c)) {
-      return core::OptionFail("cold_below_c", cold_below_c, "finite with detect absolute (or find no cold spots)");
-    }
-    if (find_hot && find_cold && !(cold_below_c < hot_above_c)) {
-      return core::OptionFail("cold_below_c", cold_below_c, "< hot_above_c (an inverted band)");
-    }
-  }
-  if (!find_hot && !find_cold) return "find_hot, find_cold: at least one must be true";
-  if (!(boundary_fraction > 0 && boundary_fraction < 1)) {
-    return core::OptionFail("boundary_fraction", boundary_fraction, "in (0, 1)");
-  }
-  if (!core::InRange(min_area_m2, 0, 1e6)) return core::OptionFail("min_area_m2", min_area_m2, "in [0, 1e6]");
-  if (!(max_area_m2 > min_area_m2) || !std::isfinite(max_area_m2)) {
-    return core::OptionFail("max_area_m2", max_area_m2, "finite and > min_area_m2");
-  }
-  if (!core::InRange(background_radius_m, 1e-3, 100)) {
-    return core::OptionFail("background_radius_m", background_radius_m, "in [0.001, 100]");
-  }
-  if (!core::InRange(ring_gap_m, 0, 10)) return core::OptionFail("ring_gap_m", ring_gap_m, "in [0, 10]");
-  if (!core::InRange(ring_gap_tails, 0, 20)) {
-    return core::OptionFail("ring_gap_tails", ring_gap_tails, "in [0, 20]");
-  }
-  if (!core::InRange(ring_width_m, 1e-3, 10)) return core::OptionFail("ring_width_m", ring_width_m, "in [0.001, 10]");
-  if (!(ring_max_normal_change_deg > 0 && ring_max_normal_change_deg <= 180)) {
-    return core::OptionFail("ring_max_normal_change_deg", ring_max_normal_change_deg, "in (0, 180]");
-  }
-  if (!core::InRange(min_ring_coverage, 0, 1)) {
-    return core::OptionFail("min_ring_coverage", min_ring_coverage, "in [0, 1]");
-  }
-  if (!core::InRange(min_contrast_sigmas, 0, 100)) {
-    return core::OptionFail("min_contrast_sigmas", min_contrast_sigmas, "in [0, 100]");
-  }
-  if (!core::InRange(min_views, 0, 1e6)) return core::OptionFail("min_views", min_views, "in [0, 1e6]");
-  if (max_candidates < 1) return core::OptionFail("max_candidates", max_candidates, ">= 1");
-  if (!severity.empty()) return CheckSeverityTable(severity);
-  return "";
-}
-
-namespace {
 
 // Measures one candidate of one kind (the field oriented so that the spot is a maximum).
 // Returns false with `reason` when it is not a spot.
@@ -403,16 +366,22 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
       }
       continue;
     }
-    m->ring = MeasureRing(c, m->region, m->iso.area_m2, m->iso.perimeter_m, TailLength(m->iso, level - reference));
-    if (absolute && !(m->ring.coverage >= o.min_ring_coverage && std::isfinite(m->ring.reference))) {
+    m->ring = MeasureRing(c, m->region, *in_region, m->iso.area_m2, m->iso.perimeter_m, TailLength(m->iso, level - reference));
+    const bool surrounded =
+        std::isfinite(m->ring.reference) &&
+        (m->ring.coverage >= o.min_ring_coverage ||
+         (o.min_ring_area_ratio > 0 && m->ring.area_m2 >= o.min_ring_area_ratio * m->iso.area_m2));
+    if (absolute && !surrounded) {
       // A limit needs no surroundings; ΔT is then taken over the limit itself.
       m->reference = level;
       m->ring = Ring();
       break;
     }
-    if (!(m->ring.coverage >= o.min_ring_coverage) || !std::isfinite(m->ring.reference)) {
+    if (!surrounded) {
       *reason = "no surrounding surface to compare with (ring coverage " +
-                core::RoundedNumber(m->ring.coverage) + " < min_ring_coverage)";
+                core::RoundedNumber(m->ring.coverage) + " < min_ring_coverage, ring area " +
+                core::RoundedNumber(m->iso.area_m2 > 0 ? m->ring.area_m2 / m->iso.area_m2 : 0) +
+                "x the region's < min_ring_area_ratio)";
       for (int v : m->region) (*in_region)[U(v)] = 0;
       m->region.clear();
       return false;
@@ -641,7 +610,9 @@ SpotDetection SpotFinder::Detect() const {
     const double absolute_level = sign * (hot ? options.hot_above_c : options.cold_below_c);
     std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
     std::vector<int> ring_source(field.size(), -1);
-    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces, &ring_distance, &ring_source};
+    std::vector<char> ring_seen(field.size(), 0);
+    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces, &ring_distance, &ring_source,
+              &ring_seen};
 
     // Candidate vertices and their components.
     std::vector<char> candidate(field.size(), 0);
@@ -767,7 +738,9 @@ std::vector<std::optional<Spot>> SpotFinder::MeasureAtLevels(const std::vector<L
     }
     std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
     std::vector<int> ring_source(field.size(), -1);
-    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces, &ring_distance, &ring_source};
+    std::vector<char> ring_seen(field.size(), 0);
+    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces, &ring_distance, &ring_source,
+              &ring_seen};
     std::vector<char> in_region(field.size(), 0);
     Measured m;
     std::string reason;

@@ -99,11 +99,25 @@ struct SpotOptions {
   // part at another temperature, unscanned surface), in [0, 1]. 0.2: a spot filling most of
   // a narrow face (a breaker's front) keeps the strips beside it.
   double min_ring_coverage = 0.2;
+  // ... or, enough surroundings for its size: a ring of at least this many times the
+  // region's own area, >= 0 (0: coverage alone decides). A small spot on a narrow face (a
+  // 24 mm lug on a 60 mm terminal strip) keeps two strips beside it that are a fraction of
+  // the annulus yet ten times its area; a whole part keeps none, or a thin spill round its
+  // edge far smaller than itself.
+  double min_ring_area_ratio = 2;
   // The ring stays on the spot's own smooth surface: it does not cross where the normal
   // turns by more than this from the region's, degrees, in (0, 180]. 45°: box edges and
   // pipe-to-flange corners (90°) stop it; a 5 mm reconstruction's normal noise (a few
   // degrees) and a pipe's curvature over the ring's width (< 40° for r >= 7 cm) do not.
   double ring_max_normal_change_deg = 45;
+  // ... where "the region's" normal, at each place the ring starts (a vertex on the
+  // region's border), is the area-weighted mean normal of the region within this radius of
+  // it, m, [0, 1] (0: that vertex's own). A reconstruction rounds a crease over a few voxels
+  // (TSDF normals turn over 2-3 voxels, 10-15 mm at 5 mm): a region spilling into the
+  // rounding would start paths already half turned, and they would walk round the crease
+  // (a warm cabinet side onto the wall behind it). 2 cm averages over the rounding, and
+  // turns a 7 cm pipe's normal by < 10° (the region lies on one side of its border).
+  double ring_normal_radius_m = 0.02;
   // A spot must stand out of its surroundings' own variability: |ΔT| >= this many times the
   // ring's robust spread (1.4826·MAD), >= 0. 4: a speckle of fusion noise or texture rarely
   // reaches 4σ; a defect of a few kelvin on a uniform surface does easily.

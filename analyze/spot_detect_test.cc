@@ -1,5 +1,6 @@
 #include "analyze/spot_detect.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -11,25 +12,27 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A square plane z = 0 of side `size_m` centred on the origin, triangulated on a grid of
-// `step_m` with alternating diagonals, carrying temperature(x, y).
-ThermalMesh Plane(double size_m, double step_m, const std::function<double(double, double)>& temperature) {
-  const int n = static_cast<int>(std::lround(size_m / step_m));
+// A rectangle z = 0 of size_x_m × size_y_m centred on the origin, triangulated on a grid
+// of `step_m` with alternating diagonals, carrying temperature(x, y).
+ThermalMesh Rectangle(double size_x_m, double size_y_m, double step_m,
+                      const std::function<double(double, double)>& temperature) {
+  const int nx = static_cast<int>(std::lround(size_x_m / step_m));
+  const int ny = static_cast<int>(std::lround(size_y_m / step_m));
   core::PlyMesh ply;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> t;
-  for (int j = 0; j <= n; ++j) {
-    for (int i = 0; i <= n; ++i) {
-      const double x = -0.5 * size_m + i * step_m, y = -0.5 * size_m + j * step_m;
+  for (int j = 0; j <= ny; ++j) {
+    for (int i = 0; i <= nx; ++i) {
+      const double x = -0.5 * size_x_m + i * step_m, y = -0.5 * size_y_m + j * step_m;
       points.emplace_back(x, y, 0);
       t.push_back(temperature(x, y));
     }
   }
   ply.SetPositions(points, core::PlyType::kFloat64);
   ply.AddProperty("temperature_c", core::PlyType::kFloat64, t);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const int a = j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 2, d = a + nx + 1;
       if ((i + j) % 2 == 0) {
         ply.faces.emplace_back(a, b, c);
         ply.faces.emplace_back(a, c, d);
@@ -40,6 +43,11 @@ ThermalMesh Plane(double size_m, double step_m, const std::function<double(doubl
     }
   }
   return MakeThermalMesh(ply, "plane.ply");
+}
+
+// A square plane z = 0 of side `size_m` (Rectangle).
+ThermalMesh Plane(double size_m, double step_m, const std::function<double(double, double)>& temperature) {
+  return Rectangle(size_m, size_m, step_m, temperature);
 }
 
 // The fixtures' plateau profile (fixtures/scene.h): T = threshold on the boundary of the
@@ -219,6 +227,84 @@ TEST(SpotDetectTest, NonManifoldMeshesAreMeasured) {
   EXPECT_NEAR(d.spots[0].area_m2, kPi * 0.01, 0.02 * kPi * 0.01);
 }
 
+// A hot screw head (r 8 mm) on a 30 mm terminal strip 0.6 m long: the ring's two strips
+// beside it are 18 % of the annulus a spot on an open surface has, but 15 times the head's
+// area: surroundings enough (min_ring_area_ratio). Coverage alone would reject it.
+TEST(SpotDetectTest, ASmallSpotOnANarrowFaceHasSurroundings) {
+  const double radius = 0.008;
+  const ThermalMesh mesh = Rectangle(0.6, 0.03, 0.001, [&](double x, double y) {
+    return Plateau(std::hypot(x - 0.1, y) - radius, 28, 70, 0.002);
+  });
+  SpotOptions options;
+  const SpotDetection d = DetectSpots(mesh, options);
+  ASSERT_EQ(d.spots.size(), 1u);
+  EXPECT_NEAR(d.spots[0].area_m2, kPi * radius * radius, 0.03 * kPi * radius * radius);
+  EXPECT_NEAR(d.spots[0].reference_c, 28, 0.05);
+  options.min_ring_area_ratio = 0;
+  const SpotDetection coverage_alone = DetectSpots(mesh, options);
+  EXPECT_TRUE(coverage_alone.spots.empty());
+  ASSERT_FALSE(coverage_alone.rejected.empty());
+  EXPECT_NE(coverage_alone.rejected[0].reason.find("no surrounding surface"), std::string::npos);
+}
+
+// A reconstruction rounds a crease: a warm cabinet side (x = 0, normal +x, 3 K above the
+// wall) meets the wall behind it (y = 0, normal -y) through a 1 cm fillet, and the side's
+// warmth, blurred, fills the fillet up to 2 mm short of the wall. The side is a whole part:
+// no surroundings on its own surface. Paths leaving the region where the fillet has
+// already turned 80° used to walk on round the crease and take the wall as surroundings;
+// held to the region's mean normal within 2 cm of where they leave, they stop.
+TEST(SpotDetectTest, AWholePartIsNotASpotWhenItsCreaseIsRounded) {
+  const double h = 0.0025, radius = 0.01, depth = 0.2, wall = 0.8, height = 1.0;
+  std::vector<Eigen::Vector2d> profile;  // (x, y), along the side face, the fillet, the wall
+  std::vector<Eigen::Vector2d> normals;
+  for (double y = -depth; y < -radius - 1e-9; y += h) profile.emplace_back(0, y), normals.emplace_back(1, 0);
+  const int arc_steps = 8;
+  for (int k = 0; k <= arc_steps; ++k) {
+    const double a = 0.5 * kPi * k / arc_steps;  // 0: the side's normal, 90°: the wall's
+    profile.emplace_back(radius - radius * std::cos(a), -radius + radius * std::sin(a));
+    normals.emplace_back(std::cos(a), -std::sin(a));
+  }
+  for (double x = radius + h; x <= wall + 1e-9; x += h) profile.emplace_back(x, 0), normals.emplace_back(0, -1);
+  std::vector<double> arc_length = {0};
+  for (size_t i = 1; i < profile.size(); ++i) arc_length.push_back(arc_length.back() + (profile[i] - profile[i - 1]).norm());
+  const double fillet_end = arc_length[profile.size() - static_cast<size_t>(std::lround((wall - radius) / h)) - 1];
+  const double edge = fillet_end - 0.002;  // where the blurred step crosses its half-way level
+  const int n = static_cast<int>(profile.size()), rows = static_cast<int>(std::lround(height / h)) + 1;
+  std::vector<Eigen::Vector3d> points, point_normals;
+  std::vector<double> t;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < n; ++i) {
+      points.emplace_back(profile[i].x(), profile[i].y(), j * h);
+      point_normals.emplace_back(normals[i].x(), normals[i].y(), 0);
+      t.push_back(21 + 3 * std::clamp(0.5 - (arc_length[i] - edge) / 0.004, 0.0, 1.0));
+    }
+  }
+  core::PlyMesh ply;
+  ply.SetPositions(points, core::PlyType::kFloat64);
+  ply.SetNormals(point_normals, core::PlyType::kFloat64);
+  ply.AddProperty("temperature_c", core::PlyType::kFloat64, t);
+  for (int j = 0; j + 1 < rows; ++j) {
+    for (int i = 0; i + 1 < n; ++i) {
+      const int a = j * n + i, b = a + 1, c = a + n + 1, d = a + n;
+      ply.faces.emplace_back(a, d, c);  // normals: the side's +x, the wall's -y
+      ply.faces.emplace_back(a, c, b);
+    }
+  }
+  const ThermalMesh mesh = MakeThermalMesh(ply, "rounded.ply");
+  SpotOptions options;
+  const SpotDetection held = DetectSpots(mesh, options);
+  EXPECT_TRUE(held.spots.empty());
+  ASSERT_FALSE(held.rejected.empty());
+  EXPECT_NE(held.rejected[0].reason.find("no surrounding surface"), std::string::npos) << held.rejected[0].reason;
+  // Each path held to the normal of the vertex it left from: the wall becomes the side's
+  // surroundings and the whole side a 3 K "spot".
+  options.ring_normal_radius_m = 0;
+  const SpotDetection own = DetectSpots(mesh, options);
+  ASSERT_EQ(own.spots.size(), 1u);
+  EXPECT_NEAR(own.spots[0].delta_k, 3, 0.1);
+  EXPECT_GT(own.spots[0].area_m2, depth * height * 0.9);
+}
+
 TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   SpotOptions o;
   EXPECT_EQ(o.Check(), "");
@@ -229,6 +315,12 @@ TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   o.hot_above_c = 10;
   o.cold_below_c = 30;
   EXPECT_NE(o.Check().find("inverted"), std::string::npos);
+  o = SpotOptions();
+  o.min_ring_area_ratio = -1;
+  EXPECT_NE(o.Check().find("min_ring_area_ratio"), std::string::npos);
+  o = SpotOptions();
+  o.ring_normal_radius_m = -0.01;
+  EXPECT_NE(o.Check().find("ring_normal_radius_m"), std::string::npos);
   o = SpotOptions();
   o.severity = {{5, "b", ""}, {1, "a", ""}};
   EXPECT_NE(o.Check().find("severity[1].min_delta_k"), std::string::npos);

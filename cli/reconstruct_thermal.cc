@@ -88,6 +88,8 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
   fusion_options.min_depth_m = options.reconstruction.min_depth_m;
   fusion_options.max_depth_m = options.reconstruction.max_depth_m;
   fusion_options.num_threads = options.reconstruction.num_threads;
+  // A frame between two depth poses is bridged as given poses are (three depth periods).
+  fusion_options.max_pose_gap_s = std::max(fusion_options.max_pose_gap_s, reconstruct::PoseGapLimitS(scan));
   return std::make_unique<reconstruct::ThermalFusion>(rig, fusion_options, std::move(emissivity),
                                                       scan.ffc_timestamps_s());
 }

@@ -473,6 +473,11 @@ class ThermalFeeder {
 
 }  // namespace
 
+double PoseGapLimitS(const core::Scan& scan) {
+  const double period_s = scan.MedianPeriod(core::Stream::kDepth);
+  return std::isfinite(period_s) ? std::max(0.1, 3 * period_s) : 0.1;
+}
+
 ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
                                    const ScanReconstructionOptions& options,
                                    const std::function<void(int, int)>& frame_done, ThermalFusion* thermal) {
@@ -485,6 +490,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
   const bool use_rgb = reconstruction.options().integrate_colour && scan.rig().rgb &&
                        scan.NumFrames(Stream::kRgb) > 0;
   ThermalFeeder feeder(scan, thermal, out);
+  const double pose_gap_s = PoseGapLimitS(scan);
   for (int i = first; i < last; ++i) {
     const double t = scan.Timestamp(Stream::kDepth, i);
     if (!scan.FrameExists(Stream::kDepth, i)) {
@@ -499,7 +505,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     out.load_seconds += Ms(load_start) / 1000;
 
     if (options.poses) {
-      frame.world_from_depth = options.poses->At(t, 0.1);
+      frame.world_from_depth = options.poses->At(t, pose_gap_s);
       if (!frame.world_from_depth) {
         ++out.unposed_frames;
         out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: no given pose, skipped", i, t));

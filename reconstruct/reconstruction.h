@@ -187,6 +187,12 @@ cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera
 // file exists. Throws core::InputError as Scan::Load*.
 FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb);
 
+// The longest gap between two poses that interpolation bridges for this scan, s: three
+// depth frame periods (a dropped frame and the stamps' jitter), at least 0.1 s. A fixed
+// 0.1 s would be less than one period of a 10 Hz depth stream plus jitter: half the frames
+// of such a scan would find no pose.
+double PoseGapLimitS(const core::Scan& scan);
+
 // Options of ReconstructScan beyond the pipeline's.
 struct ScanReconstructionOptions {
   // Start at the scan's groundtruth pose of the first frame instead of identity, so that the
@@ -195,8 +201,9 @@ struct ScanReconstructionOptions {
   bool start_at_groundtruth = false;
   int first_frame = 0;  // first depth frame to use, >= 0
   int max_frames = 0;   // frames to use from first_frame, 0 = all
-  // Fuse along these poses (world_from_depth, depth clock; interpolated, gaps over 0.1 s not
-  // bridged) instead of tracking: frames they do not cover are skipped with a warning.
+  // Fuse along these poses (world_from_depth, depth clock; interpolated, gaps over
+  // PoseGapLimitS(scan) not bridged) instead of tracking: frames they do not cover are
+  // skipped with a warning.
   std::optional<core::Trajectory> poses;
 
   std::string Check() const;

@@ -62,6 +62,7 @@ struct ThermalFusionOptions {
   double min_ray_confidence = 0.01;
   // A thermal frame is fused only between two fused depth poses at most this far apart
   // (depth clock): a tracking gap or the ends of the trajectory are not bridged. s, > 0.
+  // `heatwave reconstruct` raises it to PoseGapLimitS (three depth frame periods).
   double max_pose_gap_s = 0.1;
   // The thermal camera's vignetting left after its own radiometric calibration, as the
   // radiance lost at the image corners: pixels read L·(1 − v·r²), r the pixel centre's

@@ -5,6 +5,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -83,6 +84,33 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
                           "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
+}
+
+// A 10 Hz depth stream (a slower sensor, or a capture that could not keep up): given poses
+// and thermal frames are interpolated across three depth periods, not a fixed 0.1 s that
+// is less than one period plus jitter (half the frames of such a scan found no pose).
+TEST(ReconstructThermalCli, SlowDepthStreamStillPosesEveryFrame) {
+  hw::fixtures::SynthScanOptions o = hw::reconstruct::test::TestScanOptions();
+  o.write_thermal = true;
+  o.duration_s = 2;
+  o.depth_rate_hz = 10;
+  o.thermal_rate_hz = 9;
+  o.timing.drop_probability = o.timing.burst_probability = 0;  // jitter only
+  const fs::path scan = hw::reconstruct::test::CachedScan("slow-depth-thermal", o);
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() + " --poses " +
+                            (scan / "groundtruth.txt").string() + " --start-at-groundtruth" + kOptions);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json json = nlohmann::json::parse(Read(out / "reconstruct.json"));
+  EXPECT_EQ(json["summary"]["unposed"].get<int>(), 0);
+  EXPECT_EQ(json["summary"]["posed"].get<int>(), 20);
+  const nlohmann::json& thermal = json["thermal"]["summary"];
+  // Every thermal frame between the first and the last depth frame gets a pose; at most
+  // the one before the first depth frame does not (the frozen FFC frames are not counted).
+  EXPECT_LE(thermal["no_pose"].get<int>(), 1) << thermal.dump();
+  EXPECT_GE(thermal["fused"].get<int>(), thermal["frames"].get<int>() - 1 - thermal["frozen"].get<int>() -
+                                             thermal["after_end"].get<int>()) << thermal.dump();
+  EXPECT_NEAR(json["thermal"]["settings"]["max_pose_gap_s"].get<double>(), 0.3, 0.01);
 }
 
 TEST(ReconstructThermalCli, ScanWithoutThermalFramesWarnsAndWritesNoTemperature) {
