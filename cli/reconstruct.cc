@@ -108,6 +108,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Int("valid_points", f.valid_points)
         .Number("residual_rms_m", f.residual_rms_m)
         .Number("condition", f.condition)
+        .Int("held_directions", f.held_directions)
         .Int("iterations", f.iterations)
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
@@ -138,7 +139,7 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .Int("depth_frames", r.depth_frames)
       .String("depth_correction", r.depth_correction.empty() ? "none" : "rig.yaml, " + r.depth_correction);
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
-      .Int("posed", r.posed).Int("unposed", r.unposed)
+      .Int("posed", r.posed).Int("unposed", r.unposed).Int("held", r.held)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured);
   const double processed = std::max<size_t>(1, reconstruction.frames().size());
@@ -316,6 +317,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.coloured += f.coloured;
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
+    r.held += f.fused && f.held_directions > 0 &&
+              (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.lost += f.status == FrameStatus::kLost;
     r.no_depth += f.status == FrameStatus::kNoDepth;
     r.posed += f.status == FrameStatus::kPosed;
@@ -401,6 +404,10 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                             "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
                             r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
                             r.missing, r.unposed, r.coloured);
+  if (r.held > 0) {
+    out += core::StringPrintf("Tracking   %d frames with directions the geometry left free held at the "
+                              "constant-velocity prediction\n", r.held);
+  }
   if (!r.depth_correction.empty()) {
     out += "Depth      corrected with rig.yaml's depth_correction (" + r.depth_correction + ")\n";
   }

@@ -67,6 +67,7 @@ struct ReconstructCommandResult {
   std::string depth_correction;
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
+  int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
   size_t vertices = 0, faces = 0;
   double area_m2 = 0;
   reconstruct::MeshStats mesh_stats;

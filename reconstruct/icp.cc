@@ -355,6 +355,20 @@ Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
   return scale.asDiagonal() * (solver.eigenvectors() * in_eigenbasis);
 }
 
+// Eigen-directions of A (rotation scaled by the lever) weaker than largest / max_condition:
+// the ones Step leaves at the initial pose; 6 when A is zero.
+int WeakDirections(const Matrix6d& A, double max_condition) {
+  Vector6d scale;
+  scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
+  const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled, Eigen::EigenvaluesOnly);
+  const Vector6d& eig = solver.eigenvalues();  // ascending
+  if (!(eig(5) > 0)) return 6;
+  int weak = 0;
+  for (int k = 0; k < 6; ++k) weak += !(eig(k) * max_condition >= eig(5));
+  return weak;
+}
+
 double Condition(const Matrix6d& A) {
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
@@ -398,6 +412,9 @@ std::string IcpOptions::Check() const {
   }
   if (min_inliers < 6) return Fail("min_inliers", min_inliers, ">= 6");
   if (!(max_condition > 1)) return Fail("max_condition", max_condition, "> 1");
+  if (max_held_directions < 0 || max_held_directions > 5) {
+    return Fail("max_held_directions", max_held_directions, "in [0, 5]");
+  }
   if (!(max_residual_m > 0)) return Fail("max_residual_m", max_residual_m, "> 0 m");
   if (!(max_jump_m > 0)) return Fail("max_jump_m", max_jump_m, "> 0 m");
   if (!(max_jump_deg > 0)) return Fail("max_jump_deg", max_jump_deg, "> 0 degrees");
@@ -560,11 +577,12 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
   result.residual_rms_m = last.inliers > 0 ? std::sqrt(last.sum_r_sq / last.inliers) : 0.0;
   result.information = last_A;
   result.condition = last.inliers > 0 ? Condition(last_A) : std::numeric_limits<double>::infinity();
+  result.held_directions = last.inliers > 0 ? WeakDirections(last_A, options.max_condition) : 6;
   const core::PoseError jump = core::ComparePoses(initial_world_from_camera, estimate);
   if (last.inliers < options.min_inliers ||
       last.inliers < options.min_inlier_fraction * last.valid) {
     result.status = IcpStatus::kTooFewInliers;
-  } else if (!(result.condition <= options.max_condition)) {
+  } else if (result.held_directions > options.max_held_directions) {
     result.status = IcpStatus::kIllConditioned;
   } else if (result.residual_rms_m > options.max_residual_m) {
     result.status = IcpStatus::kLargeResidual;

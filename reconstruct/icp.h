@@ -36,6 +36,13 @@ struct IcpOptions {
   // degrees of freedom (a flat wall, a corridor). Directions weaker than that get no update
   // (the estimate keeps the initial pose there). > 1.
   double max_condition = 1e5;
+  // Weak directions the frame may leave at the initial pose and still be aligned, [0, 5]:
+  // wall + ceiling, or pipes running along a wall, leave one translation free (a corridor),
+  // which the constant-velocity prediction then carries — sliding along it changes nothing
+  // the depth sees, so fusing the frame is harmless, while declaring it lost left a scan
+  // turning up to pipes under a ceiling lost for good (the view stays degenerate, so
+  // relocalisation fails too). A single flat wall leaves three: beyond 2, the frame fails.
+  int max_held_directions = 2;
   double max_residual_m = 0.02;       // RMS point-to-plane residual of inliers, m, > 0
   // Largest plausible change from the predicted pose in one frame; a bigger jump is a
   // failed alignment, not motion (a hand-held rig moves < 2 m/s, < 180°/s).
@@ -76,7 +83,7 @@ ModelPyramid BuildModelPyramid(PointMap level0, const PinholeCamera& camera,
 enum class IcpStatus {
   kOk,
   kTooFewInliers,    // fewer than min_inliers / min_inlier_fraction
-  kIllConditioned,   // condition above max_condition
+  kIllConditioned,   // more than max_held_directions directions weaker than largest / max_condition
   kLargeResidual,    // inlier RMS above max_residual_m
   kImplausibleJump,  // change from the initial pose above max_jump_m / max_jump_deg
 };
@@ -91,6 +98,8 @@ struct IcpResult {
   int valid_points = 0;             // live points with a normal at that level (the candidates)
   double residual_rms_m = 0;        // RMS point-to-plane residual of the inliers, m
   double condition = 0;             // of the last normal matrix (inf when singular)
+  // Directions of that matrix weaker than largest / max_condition: left at the initial pose.
+  int held_directions = 0;
   int iterations = 0;               // total over levels
   // The 6×6 normal matrix Σ w J Jᵀ of the final iteration (photometric rows included when
   // that term is on), in the tangent the updates use:

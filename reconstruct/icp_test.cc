@@ -148,6 +148,7 @@ TEST(IcpOptions, CheckNamesTheField) {
   EXPECT_THAT(with([](auto& o) { o.min_inlier_fraction = 1.5; }), HasSubstr("min_inlier_fraction"));
   EXPECT_THAT(with([](auto& o) { o.min_inliers = 5; }), HasSubstr("min_inliers"));
   EXPECT_THAT(with([](auto& o) { o.max_condition = 1; }), HasSubstr("max_condition"));
+  EXPECT_THAT(with([](auto& o) { o.max_held_directions = 6; }), HasSubstr("max_held_directions"));
   EXPECT_THAT(with([](auto& o) { o.max_residual_m = 0; }), HasSubstr("max_residual_m"));
   EXPECT_THAT(with([](auto& o) { o.max_jump_m = 0; }), HasSubstr("max_jump_m"));
   EXPECT_THAT(with([](auto& o) { o.max_jump_deg = 0; }), HasSubstr("max_jump_deg"));
@@ -337,6 +338,7 @@ TEST(AlignToModel, AFlatWallIsIllConditioned) {
                                         ModelOf(scene, reference), reference, IcpOptions());
   EXPECT_EQ(result.status, IcpStatus::kIllConditioned) << IcpStatusName(result.status);
   EXPECT_GT(result.condition, IcpOptions().max_condition);
+  EXPECT_EQ(result.held_directions, 3);  // in-plane translation and rotation about the normal
   EXPECT_GT(result.inliers, 0.9 * result.valid_points);  // not a failure of association
   // What the wall constrains is found: the camera's height above it (measured 1 µm; float
   // rounding at 1.5 m is ~0.2 µm per point)...
@@ -349,6 +351,36 @@ TEST(AlignToModel, AFlatWallIsIllConditioned) {
       AlignToModel(noisy, ModelOf(scene, reference), reference, IcpOptions());
   EXPECT_EQ(noisy_result.status, IcpStatus::kIllConditioned);
   EXPECT_LT(core::ComparePoses(noisy_result.world_from_camera, reference).translation_m, 0.03);
+}
+
+// Two walls meeting along the x axis (a wall and a ceiling, or pipes along a wall) leave
+// one direction free: translation along x. That direction is held at the initial pose (the
+// prediction) and the frame is aligned in the other five; with max_held_directions 0 it
+// fails as ill-conditioned, as before.
+TEST(AlignToModel, ACorridorHoldsItsFreeDirectionAtThePrediction) {
+  const Scene scene{{Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()}, {0, 0}};
+  const core::Rigid3d reference = LookAt({0.3, 1.1, 1.0}, {0.4, 0, 0});
+  Vector6d xi;
+  xi << 0.01, -0.01, 0.008, 0.012, -0.01, 0.015;
+  const core::Rigid3d truth = reference * core::Rigid3d::Exp(xi);
+  IcpOptions options;
+  const IcpResult result = AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options);
+  ASSERT_EQ(result.status, IcpStatus::kOk) << IcpStatusName(result.status);
+  EXPECT_EQ(result.held_directions, 1);
+  EXPECT_GT(result.condition, options.max_condition);
+  // The constrained part found (height above the floor, distance from the wall, the
+  // rotation)...
+  EXPECT_NEAR(result.world_from_camera.translation.y(), truth.translation.y(), 1e-4);
+  EXPECT_NEAR(result.world_from_camera.translation.z(), truth.translation.z(), 1e-4);
+  EXPECT_LT(core::ComparePoses(result.world_from_camera, truth).rotation_rad, 1e-4);
+  // ...and x left where the prediction put it (the true motion moved it 1.5 cm).
+  EXPECT_GT(std::abs(truth.translation.x() - reference.translation.x()), 0.01);
+  EXPECT_NEAR(result.world_from_camera.translation.x(), reference.translation.x(), 1e-4);
+
+  options.max_held_directions = 0;
+  const IcpResult strict = AlignToModel(LiveOf(scene, truth), ModelOf(scene, reference), reference, options);
+  EXPECT_EQ(strict.status, IcpStatus::kIllConditioned) << IcpStatusName(strict.status);
+  EXPECT_EQ(strict.held_directions, 1);
 }
 
 TEST(AlignToModel, AJumpBeyondTheLimitIsImplausible) {

@@ -311,15 +311,15 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     max_residual_m = options_.max_residual_ratio * median(recent_residuals_m_);
     max_condition = options_.max_condition_ratio * median(recent_conditions_);
   }
+  // Directions constrained this much worse than usual are held at the prediction (at most
+  // icp.max_held_directions of them, else the frame fails as ill-conditioned).
+  icp.max_condition = std::min(icp.max_condition, max_condition);
   IcpResult best;
   bool ok = false;
   for (const core::Rigid3d& initial : starts) {
     IcpResult result = AlignToModel(pyramid, *model_, initial, icp);
     if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
       result.status = IcpStatus::kLargeResidual;
-    }
-    if (result.status == IcpStatus::kOk && result.condition > max_condition) {
-      result.status = IcpStatus::kIllConditioned;
     }
     if (result.status == IcpStatus::kOk) {
       best = result;
@@ -333,17 +333,22 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   record.valid_points = best.valid_points;
   record.residual_rms_m = best.residual_rms_m;
   record.condition = best.condition;
+  record.held_directions = best.held_directions;
   record.iterations = best.iterations;
   const core::PoseError correction = core::ComparePoses(starts.front(), best.world_from_camera);
   record.correction_m = correction.translation_m;
   record.correction_deg = correction.rotation_rad * kRadToDeg;
   if (ok) {
     world_from_depth = best.world_from_camera;
-    recent_residuals_m_.push_back(best.residual_rms_m);
-    recent_conditions_.push_back(best.condition);
-    if (recent_residuals_m_.size() > kHistory) {
-      recent_residuals_m_.erase(recent_residuals_m_.begin());
-      recent_conditions_.erase(recent_conditions_.begin());
+    // The gates' history holds fully constrained frames only: a run of held ones must not
+    // raise what counts as usual.
+    if (best.held_directions == 0) {
+      recent_residuals_m_.push_back(best.residual_rms_m);
+      recent_conditions_.push_back(best.condition);
+      if (recent_residuals_m_.size() > kHistory) {
+        recent_residuals_m_.erase(recent_residuals_m_.begin());
+        recent_conditions_.erase(recent_conditions_.begin());
+      }
     }
   }
   return ok;

@@ -65,9 +65,11 @@ struct ReconstructionOptions {
   // cannot tell misalignment from a noisier sensor or scene, a relative one can (fast motion
   // blurs depth, and a wrong pose leaves a residual well above the frames before it). > 1.
   double max_residual_ratio = 2.0;
-  // Likewise for the condition of the ICP system: a frame whose geometry and texture constrain
-  // the pose this many times worse than the median of the last tracked frames (a frame without
-  // colour facing a wall) counts as failed rather than sliding. > 1.
+  // Likewise for the condition of the ICP system: directions that the geometry and texture
+  // constrain this many times worse than the median of the last tracked frames are held at
+  // the constant-velocity prediction rather than left to slide with noise; more than
+  // icp.max_held_directions of them (a frame without colour facing a flat wall) and the
+  // frame counts as failed. > 1.
   double max_condition_ratio = 5.0;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
@@ -109,6 +111,8 @@ struct FrameRecord {
   IcpStatus icp_status = IcpStatus::kOk;  // of the last attempt (tracked / lost frames)
   int inliers = 0, valid_points = 0;
   double residual_rms_m = 0, condition = 0;
+  // Directions of the pose the frame left at the constant-velocity prediction (IcpResult).
+  int held_directions = 0;
   int iterations = 0;
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;
