@@ -57,8 +57,10 @@ struct ReconstructionOptions {
   // Frames with fewer valid depth pixels than this fraction of the image are not used
   // (a covered lens, a sensor glitch). In [0, 1].
   double min_valid_depth_fraction = 0.05;
-  // After a tracking failure, frames are aligned from the last tracked pose with the
-  // association gates and jump limits widened by this factor, until one succeeds. >= 1.
+  // A frame that fails to track is retried with the association gate widened by this factor
+  // (jump limits kept) before it counts as lost; after a loss, frames are aligned from the
+  // extrapolated and the last fused pose with the gate and the jump limits widened by it (the
+  // jump limits also by the frames elapsed), until one succeeds. >= 1 (1: no retry).
   double relocalisation_widening = 2.0;
   // A frame whose ICP residual exceeds this multiple of the median residual of the last
   // tracked frames (at least 5 of them; the last 30) counts as failed: a fixed threshold
