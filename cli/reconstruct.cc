@@ -109,6 +109,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Number("residual_rms_m", f.residual_rms_m)
         .Number("condition", f.condition)
         .Int("held_directions", f.held_directions)
+        .String("icp_start", f.from_last_pose ? "last_pose" : "prediction")
+        .Bool("widened_gate", f.widened_gate)
         .Int("iterations", f.iterations)
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
@@ -140,6 +142,7 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .String("depth_correction", r.depth_correction.empty() ? "none" : "rig.yaml, " + r.depth_correction);
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
       .Int("posed", r.posed).Int("unposed", r.unposed).Int("held", r.held)
+      .Int("widened", r.widened)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured);
   const double processed = std::max<size_t>(1, reconstruction.frames().size());
@@ -319,6 +322,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.recovered += f.status == FrameStatus::kRecovered;
     r.held += f.fused && f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
+    r.widened += f.status == FrameStatus::kTracked && f.widened_gate;
     r.lost += f.status == FrameStatus::kLost;
     r.no_depth += f.status == FrameStatus::kNoDepth;
     r.posed += f.status == FrameStatus::kPosed;
@@ -404,6 +408,10 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                             "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
                             r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
                             r.missing, r.unposed, r.coloured);
+  if (r.widened > 0) {
+    out += core::StringPrintf("Tracking   %d frames aligned only on the widened association gate "
+                              "(no velocity yet, or more motion than the gate)\n", r.widened);
+  }
   if (r.held > 0) {
     out += core::StringPrintf("Tracking   %d frames with directions the geometry left free held at the "
                               "constant-velocity prediction\n", r.held);

@@ -68,6 +68,7 @@ struct ReconstructCommandResult {
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
+  int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)
   size_t vertices = 0, faces = 0;
   double area_m2 = 0;
   reconstruct::MeshStats mesh_stats;

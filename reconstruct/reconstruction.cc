@@ -292,6 +292,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   struct Attempt {
     core::Rigid3d initial;
     IcpOptions icp;
+    bool from_last_pose = false, widened = false;
   };
   std::vector<Attempt> attempts;
   IcpOptions wide = options_.icp;
@@ -306,8 +307,8 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     // pose there is no velocity: the prediction is the last pose, tried once per gate.
     for (const IcpOptions* icp : {&options_.icp, &wide}) {
       if (icp == &wide && w == 1) break;
-      attempts.push_back({PoseAt(timestamp_s), *icp});
-      if (poses.size() >= 2) attempts.push_back({last, *icp});
+      attempts.push_back({PoseAt(timestamp_s), *icp, poses.size() < 2, icp == &wide});
+      if (poses.size() >= 2) attempts.push_back({last, *icp, true, icp == &wide});
     }
   } else {
     // Relocalisation: the rig has moved for a while unobserved. Widen the gates and let the
@@ -326,9 +327,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     // breakers after 0.3 s hidden: from the last pose 53 mm off on 54.7k inliers, 4.0 mm
     // RMS, and the tracking then ran away by 0.67 m; from the extrapolation 21 mm on 60.5k).
     if (poses.size() >= 2 && elapsed_s <= kMaxExtrapolationS) {
-      attempts.push_back({PoseAt(timestamp_s), wide});
+      attempts.push_back({PoseAt(timestamp_s), wide, false, true});
     }
-    attempts.push_back({last, wide});
+    attempts.push_back({last, wide, true, true});
   }
 
   // The residual gate relative to the frames tracked before.
@@ -346,6 +347,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   // Directions constrained this much worse than usual are held at the prediction (at most
   // icp.max_held_directions of them, else the frame fails as ill-conditioned).
   IcpResult best;
+  const Attempt* best_attempt = &attempts.front();
   bool ok = false;
   for (Attempt& attempt : attempts) {
     attempt.icp.max_condition = std::min(attempt.icp.max_condition, max_condition);
@@ -354,7 +356,10 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
       result.status = IcpStatus::kLargeResidual;
     }
     if (result.status == IcpStatus::kOk) {
-      if (!ok || result.inliers > best.inliers) best = result;
+      if (!ok || result.inliers > best.inliers) {
+        best = result;
+        best_attempt = &attempt;
+      }
       ok = true;
       if (!lost_) break;  // tracking: the first success; relocalising: the best of all
       continue;
@@ -367,6 +372,8 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   record.residual_rms_m = best.residual_rms_m;
   record.condition = best.condition;
   record.held_directions = best.held_directions;
+  record.from_last_pose = best_attempt->from_last_pose;
+  record.widened_gate = best_attempt->widened;
   record.iterations = best.iterations;
   const core::PoseError correction =
       core::ComparePoses(attempts.front().initial, best.world_from_camera);

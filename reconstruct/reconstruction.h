@@ -115,6 +115,12 @@ struct FrameRecord {
   double residual_rms_m = 0, condition = 0;
   // Directions of the pose the frame left at the constant-velocity prediction (IcpResult).
   int held_directions = 0;
+  // Which ICP run gave the result (tracked / recovered frames; lost ones: the first run):
+  // started from the last fused pose rather than the prediction (when relocalising, the
+  // constant-velocity extrapolation over the loss), and with the association gate widened
+  // by relocalisation_widening (a retry, or relocalisation).
+  bool from_last_pose = false;
+  bool widened_gate = false;
   int iterations = 0;
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;

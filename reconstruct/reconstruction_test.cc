@@ -286,6 +286,9 @@ TEST(Reconstruction, ASlowStreamStartedMidWalkTracksFromItsSecondFrame) {
   ReconstructScan(scan, reconstruction, options);
   ASSERT_EQ(reconstruction.frames().size(), 25u);
   for (const FrameRecord& f : reconstruction.frames()) EXPECT_TRUE(f.fused) << "frame " << f.index;
+  // The second frame on the widened gate, from the first pose (there is no velocity yet).
+  EXPECT_TRUE(reconstruction.frames()[1].widened_gate);
+  EXPECT_TRUE(reconstruction.frames()[1].from_last_pose);
   // Depth alone drifts along the cabinet front: measured at most 22 mm over the 2.5 s.
   ExpectOnTheTruth(reconstruction, scan, 0.035);
 }
@@ -311,6 +314,10 @@ TEST(Reconstruction, AHiddenLensRelocalisesWhereTheWalkCarriedTheRig) {
                              : i == 0   ? FrameStatus::kInitialised
                                         : FrameStatus::kTracked)
         << "frame " << i;
+    if (i == 18) {
+      EXPECT_FALSE(record.from_last_pose);  // the extrapolation won
+      EXPECT_TRUE(record.widened_gate);
+    }
   }
   // As the run without the hand (at most 24 mm off after the loss).
   ExpectOnTheTruth(reconstruction, scan, 0.035);
