@@ -320,7 +320,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.coloured += f.coloured;
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
-    r.held += f.fused && f.held_directions > 0 &&
+    r.held += f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.widened += f.status == FrameStatus::kTracked && f.widened_gate;
     r.lost += f.status == FrameStatus::kLost;

@@ -335,14 +335,26 @@ Matrix6d NormalMatrix(const Sums& sums) {
   return A;
 }
 
-// The Gauss-Newton step -A⁻¹ b restricted to the directions the data constrain: in the
-// eigenbasis of A (rotation scaled by the lever), directions whose eigenvalue is below
-// largest / max_condition get no update. A flat wall leaves its in-plane motion free; a
-// plain solve would slide the estimate along it by whatever the noise says, this keeps the
-// prediction there (and the condition check reports the frame).
-Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
+// Rotation rows/columns of A scaled by the lever (rotation in metres at kConditionLeverM):
+// the frame in which eigenvalues of rotation and translation compare.
+Vector6d LeverScale() {
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
+  return scale;
+}
+
+// A direction whose eigenvalue is below largest / max_condition is weak (unconstrained).
+bool IsWeak(double eigenvalue, double largest, double max_condition) {
+  return !(eigenvalue * max_condition >= largest);
+}
+
+// The Gauss-Newton step -A⁻¹ b restricted to the directions the data constrain: in the
+// eigenbasis of A (rotation scaled by the lever), weak directions (IsWeak) get no update. A
+// flat wall leaves its in-plane motion free; a plain solve would slide the estimate along it
+// by whatever the noise says, this keeps the prediction there (and the condition check
+// reports the frame).
+Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
+  const Vector6d scale = LeverScale();
   const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
   const Vector6d& eig = solver.eigenvalues();  // ascending
@@ -350,33 +362,29 @@ Vector6d Step(const Matrix6d& A, const Vector6d& b, double max_condition) {
   const Vector6d rhs = solver.eigenvectors().transpose() * (scale.asDiagonal() * -b);
   Vector6d in_eigenbasis = Vector6d::Zero();
   for (int k = 0; k < 6; ++k) {
-    if (eig(k) * max_condition >= eig(5)) in_eigenbasis(k) = rhs(k) / eig(k);
+    if (!IsWeak(eig(k), eig(5), max_condition)) in_eigenbasis(k) = rhs(k) / eig(k);
   }
   return scale.asDiagonal() * (solver.eigenvectors() * in_eigenbasis);
 }
 
-// Eigen-directions of A (rotation scaled by the lever) weaker than largest / max_condition:
-// the ones Step leaves at the initial pose; 6 when A is zero.
-int WeakDirections(const Matrix6d& A, double max_condition) {
-  Vector6d scale;
-  scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
+// The condition of A (largest / smallest eigenvalue with rotation scaled by the lever;
+// infinity when singular) and the number of weak directions, the ones Step leaves at the
+// initial pose (6 when A is zero).
+struct Conditioning {
+  double condition = std::numeric_limits<double>::infinity();
+  int weak_directions = 6;
+};
+Conditioning ConditioningOf(const Matrix6d& A, double max_condition) {
+  const Vector6d scale = LeverScale();
   const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled, Eigen::EigenvaluesOnly);
   const Vector6d& eig = solver.eigenvalues();  // ascending
-  if (!(eig(5) > 0)) return 6;
-  int weak = 0;
-  for (int k = 0; k < 6; ++k) weak += !(eig(k) * max_condition >= eig(5));
-  return weak;
-}
-
-double Condition(const Matrix6d& A) {
-  Vector6d scale;
-  scale << Eigen::Vector3d::Constant(1.0 / kConditionLeverM), Eigen::Vector3d::Ones();
-  const Matrix6d scaled = scale.asDiagonal() * A * scale.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled, Eigen::EigenvaluesOnly);
-  const Vector6d& eig = solver.eigenvalues();  // ascending
-  if (!(eig(0) > 0)) return std::numeric_limits<double>::infinity();
-  return eig(5) / eig(0);
+  Conditioning c;
+  if (eig(0) > 0) c.condition = eig(5) / eig(0);
+  if (!(eig(5) > 0)) return c;
+  c.weak_directions = 0;
+  for (int k = 0; k < 6; ++k) c.weak_directions += IsWeak(eig(k), eig(5), max_condition);
+  return c;
 }
 
 }  // namespace
@@ -576,8 +584,14 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
   result.valid_points = last.valid;
   result.residual_rms_m = last.inliers > 0 ? std::sqrt(last.sum_r_sq / last.inliers) : 0.0;
   result.information = last_A;
-  result.condition = last.inliers > 0 ? Condition(last_A) : std::numeric_limits<double>::infinity();
-  result.held_directions = last.inliers > 0 ? WeakDirections(last_A, options.max_condition) : 6;
+  if (last.inliers > 0) {
+    const Conditioning c = ConditioningOf(last_A, options.max_condition);
+    result.condition = c.condition;
+    result.held_directions = c.weak_directions;
+  } else {
+    result.condition = std::numeric_limits<double>::infinity();
+    result.held_directions = 6;
+  }
   const core::PoseError jump = core::ComparePoses(initial_world_from_camera, estimate);
   if (last.inliers < options.min_inliers ||
       last.inliers < options.min_inlier_fraction * last.valid) {

@@ -364,7 +364,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
       if (!lost_) break;  // tracking: the first success; relocalising: the best of all
       continue;
     }
-    if (&attempt == &attempts.front() && !ok) best = result;  // report the first failure
+    if (&attempt == &attempts.front()) best = result;  // report the first failure
   }
   record.icp_status = best.status;
   record.inliers = best.inliers;
