@@ -69,7 +69,11 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_jump_m", r.icp.max_jump_m)
       .Number("max_jump_deg", r.icp.max_jump_deg)
       .Number("photometric_weight", r.icp.photometric_weight);
-  raycast.Number("step_fraction", r.raycast.step_fraction).Int("level", r.raycast_level);
+  raycast.Number("step_fraction", r.raycast.step_fraction)
+      .Int("level", r.raycast_level)
+      .Int("interval", r.raycast_interval)
+      .Number("reuse_max_correction_m", r.reuse_max_correction_m)
+      .Number("reuse_max_correction_deg", r.reuse_max_correction_deg);
   mesh.Number("min_weight", r.mesh.min_weight)
       .Int("min_component_triangles", r.mesh.min_component_triangles)
       .Number("min_component_area_fraction", r.mesh.min_component_area_fraction);
@@ -154,7 +158,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .Number("mean_prepare_ms", r.prepare_ms)
       .Number("mean_track_ms", r.track_ms)
       .Number("mean_integrate_ms", r.integrate_ms)
-      .Number("mean_raycast_ms", r.raycast_ms);
+      .Number("mean_raycast_ms", r.raycast_ms)
+      .Int("raycasts", r.raycasts);
   memory.Int("peak_rss_bytes", static_cast<int64_t>(r.peak_rss_bytes))
       .Int("volume_bytes", static_cast<int64_t>(r.volume_bytes))
       .Int("blocks", static_cast<int64_t>(r.blocks));
@@ -330,6 +335,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.track_ms += f.track_ms;
     r.integrate_ms += f.integrate_ms;
     r.raycast_ms += f.raycast_ms;
+    r.raycasts += f.raycast_ms > 0;
   }
   const double n = std::max<size_t>(1, reconstruction.frames().size());
   r.prepare_ms /= n;
@@ -421,10 +427,10 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   }
   const int processed = r.depth_frames - r.missing;
   out += core::StringPrintf("Speed      %.1f frames/s processing (%.1f ms/frame: prepare %.1f, track %.1f, "
-                            "integrate %.1f, raycast %.1f); decoding %.1f s\n",
+                            "integrate %.1f, raycast %.1f after %d of them); decoding %.1f s\n",
                             processed / std::max(r.process_seconds, 1e-9),
                             1000 * r.process_seconds / std::max(processed, 1), r.prepare_ms,
-                            r.track_ms, r.integrate_ms, r.raycast_ms, r.load_seconds);
+                            r.track_ms, r.integrate_ms, r.raycast_ms, r.raycasts, r.load_seconds);
   out += core::StringPrintf("Model      %zu vertices, %zu triangles, %.3f m2; %d fragments removed "
                             "(%d triangles); meshing %.2f s\n",
                             r.vertices, r.faces, r.area_m2, r.mesh_stats.components_removed,
@@ -488,6 +494,9 @@ int RunReconstruct(int argc, char** argv) {
                  "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
   app.add_option("--raycast-level", r.raycast_level,
                  "track against the model raycast at this pyramid level (0 full, 1 half resolution)")
+      ->capture_default_str();
+  app.add_option("--raycast-interval", r.raycast_interval,
+                 "fused frames between model raycasts for tracking (1: after every frame)")
       ->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();

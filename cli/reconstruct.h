@@ -69,6 +69,7 @@ struct ReconstructCommandResult {
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
   int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)
+  int raycasts = 0;  // frames after which the model view was raycast (raycast_interval)
   size_t vertices = 0, faces = 0;
   double area_m2 = 0;
   reconstruct::MeshStats mesh_stats;

@@ -120,6 +120,13 @@ std::string ReconstructionOptions::Check() const {
       (raycast_level + 2 >= 3 || icp.iterations[raycast_level + 2] == 0)) {
     return Fail("icp.iterations", 0, "> 0 at raycast_level or a coarser level");
   }
+  if (raycast_interval < 1 || raycast_interval > 8) return Fail("raycast_interval", raycast_interval, "in [1, 8]");
+  if (!(reuse_max_correction_m > 0) || !std::isfinite(reuse_max_correction_m)) {
+    return Fail("reuse_max_correction_m", reuse_max_correction_m, "> 0 and finite");
+  }
+  if (!(reuse_max_correction_deg > 0) || !std::isfinite(reuse_max_correction_deg)) {
+    return Fail("reuse_max_correction_deg", reuse_max_correction_deg, "> 0 and finite");
+  }
   const ReconstructionOptions e = Effective(*this);
   if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
   if (std::string m = e.depth.Check(); !m.empty()) return "depth." + m;
@@ -264,9 +271,15 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   record.fused = true;
   Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   // A posed frame needs no model view (the next posed one does not track against it).
+  // After a frame tracked normally, the view may wait for raycast_interval fused frames;
+  // after any other (the first, a recovery, a retry, held directions) it is cast at once.
+  const bool normal = record.status == FrameStatus::kTracked && !record.widened_gate &&
+                      !record.from_last_pose && record.held_directions == 0 &&
+                      record.correction_m <= options_.reuse_max_correction_m &&
+                      record.correction_deg <= options_.reuse_max_correction_deg;
   if (frame.world_from_depth) {
     model_.reset();
-  } else {
+  } else if (!model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval) {
     UpdateModel(world_from_depth, record);
   }
   record.blocks = volume_.NumBlocks();
@@ -441,6 +454,7 @@ void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRec
     }
     model_ = std::move(padded);
   }
+  fused_since_raycast_ = 0;
   record.raycast_ms = Ms(start);
 }
 

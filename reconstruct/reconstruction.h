@@ -51,6 +51,23 @@ struct ReconstructionOptions {
   // ignored). A raycast costs per pixel: at 640×480, level 1 is 4× cheaper and tracks as
   // well (bench/reconstruct_peers.sh). In [0, 2].
   int raycast_level = 1;
+  // Fused frames between two model raycasts for tracking, in [1, 8]: 1 raycasts after every
+  // frame (KinectFusion); n > 1 lets n − 1 frames track against a view of the model up to
+  // n − 1 frames old (it is still the fused model, seen from a pose a few centimetres back:
+  // projective association finds the same surfaces, less the sliver that came into view).
+  // A frame that was not tracked normally (recovered, retried on the widened gate, with
+  // held directions, or after a posed frame) always raycasts after it, and so does one whose
+  // pose ICP moved from the constant-velocity prediction by more than the two limits below
+  // (the motion changed: a jerk, a stop; the next prediction is unreliable and a stale view
+  // lets a wrong pose pass as tracked — measured on the jerky path). The raycast is the
+  // costliest stage (README, Reconstruction: Speed); what skipping it costs in accuracy is
+  // measured there too.
+  int raycast_interval = 2;
+  // m, > 0: 10 mm is above 90 % of the corrections of smooth hand-held frames (3 mm median,
+  // 6-8 mm at the 90th percentile at 30 Hz and at 10 Hz), below a jerk's (57 mm).
+  double reuse_max_correction_m = 0.01;
+  // degrees, > 0: likewise (0.15-0.2° median, 0.24-0.45° at the 90th percentile; a jerk's 3°).
+  double reuse_max_correction_deg = 0.5;
   MeshOptions mesh;
   // Paint the model with the rgb stream (when the rig has one and frames are given).
   bool integrate_colour = true;
@@ -126,7 +143,8 @@ struct FrameRecord {
   double correction_m = 0, correction_deg = 0;
   size_t blocks = 0;  // voxel blocks in the volume after this frame, fused or not (memory
                       // follows them)
-  // Wall time of each stage, ms.
+  // Wall time of each stage, ms. raycast_ms is 0 when the model view was not cast after
+  // this frame (ReconstructionOptions::raycast_interval).
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
 };
 
@@ -177,7 +195,8 @@ class Reconstruction {
   core::Trajectory trajectory_;
   std::vector<FrameRecord> frames_;
   std::optional<core::Rigid3d> initial_pose_;
-  std::optional<ModelPyramid> model_;  // raycast at the last fused pose
+  std::optional<ModelPyramid> model_;  // raycast at a recent fused pose
+  int fused_since_raycast_ = 0;        // frames fused since model_ was raycast
   bool lost_ = false;
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
   std::vector<double> recent_conditions_;   // likewise

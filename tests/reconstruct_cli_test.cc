@@ -71,9 +71,11 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   const std::string json = Read(out / "reconstruct.json");
   for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
-                          "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\""}) {
+                          "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
+                          "\"interval\": 2"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
+  EXPECT_NE(r.output.find(" of them); decoding"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out / hw::core::kRunMarkerName));
   // Its trajectory evaluates with eval-trajectory too.
   const Result eval = Heatwave("eval-trajectory " + (out / "trajectory.txt").string() + " " +
@@ -252,6 +254,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                             " --voxel-size 0");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("voxel_size_m"), std::string::npos) << r.output;
+  const Result interval = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                   " --raycast-interval 0");
+  EXPECT_EQ(interval.exit_code, 2) << interval.output;
+  EXPECT_NE(interval.output.find("raycast_interval"), std::string::npos) << interval.output;
   EXPECT_EQ(Heatwave("reconstruct " + SmoothScan().string()).exit_code, 2);  // no --out
 }
 
