@@ -13,6 +13,7 @@
 
 #include "analyze/iso_region.h"
 #include "core/option_check.h"
+#include "core/strings.h"
 #include "core/yaml_reader.h"
 
 namespace hw::analyze {
@@ -391,7 +392,7 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     if (std::abs(m->ring.reference - reference) < 1e-3 && std::abs(next_level - level) < 1e-3) break;
     reference = m->ring.reference;
   }
-  double views = 0, area = 0;
+  double views = 0, area = 0, view_spread = 0, spread_area = 0;
   if (!c.mesh.views.empty()) {
     for (int v : m->region) {
       if (!std::isfinite(c.mesh.views[U(v)])) continue;
@@ -399,15 +400,27 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
       area += c.vertex_area[U(v)];
     }
   }
+  if (!c.mesh.std_c.empty()) {  // as FillSpot's mean_view_spread_c
+    for (int v : m->region) {
+      if (!std::isfinite(c.mesh.std_c[U(v)])) continue;
+      view_spread += c.vertex_area[U(v)] * c.mesh.std_c[U(v)];
+      spread_area += c.vertex_area[U(v)];
+    }
+    view_spread = spread_area > 0 ? view_spread / spread_area : 0.0;
+  }
+  const double delta = std::abs(m->peak - m->reference);
   const double spread = std::isfinite(m->ring.spread) ? m->ring.spread : 0.0;
-  if (!absolute && !(std::abs(m->peak - m->reference) >= o.min_delta_k)) {
+  if (!absolute && !(delta >= o.min_delta_k)) {
     *reason = "ΔT to the reference below min_delta_k";
-  } else if (!absolute && !(std::abs(m->peak - m->reference) >= o.min_contrast_sigmas * spread)) {
+  } else if (!absolute && !(delta >= o.min_contrast_sigmas * spread)) {
     *reason = "ΔT below min_contrast_sigmas × the surroundings' spread (" + core::RoundedNumber(spread) + " K)";
   } else if (m->iso.area_m2 < o.min_area_m2) {
     *reason = "area below min_area_m2";
   } else if (area > 0 && views / area < o.min_views) {
     *reason = "seen in fewer than min_views thermal frames (" + core::RoundedNumber(views / area) + ")";
+  } else if (!absolute && o.max_view_spread_ratio > 0 && view_spread >= o.max_view_spread_ratio * delta) {
+    *reason = core::StringPrintf("the views disagree: spread %.2f K across views for a ΔT of %.2f K "
+                                 "(max_view_spread_ratio)", view_spread, delta);
   } else {
     return true;
   }

@@ -127,6 +127,13 @@ struct SpotOptions {
   // can be a reflection, a misregistered edge or a frame at the wrong time; the point of a
   // 3D model is that a defect is seen from several viewpoints.
   double min_views = 3;
+  // ... and one whose temperature the views disagree about is not a property of the surface:
+  // rejected when the area-weighted mean spread across views (temperature_std_c) reaches
+  // this fraction of |ΔT|, >= 0 (0: off). 0.5: the views then differ by as much as the spot
+  // stands out. Measured on a reconstructed close-up walk (README, Analysis): found spots
+  // 0.04-0.09 (the blurred rim's spread included), a false one of 4 K at 0.75; most
+  // reflections do not show (0.1: the walk sees them from one side).
+  double max_view_spread_ratio = 0.5;
   // Candidates measured at most, strongest first, >= 1: a bound on the time a very noisy
   // model can take (each weak candidate may flood up to max_area_m2 of surface). The count
   // left unmeasured is reported.

@@ -305,6 +305,52 @@ TEST(SpotDetectTest, AWholePartIsNotASpotWhenItsCreaseIsRounded) {
   EXPECT_GT(own.spots[0].area_m2, depth * height * 0.9);
 }
 
+// The fields reconstruct adds: a spot is confirmed only when enough thermal frames saw it
+// (min_views) and they agree about it (max_view_spread_ratio).
+TEST(SpotDetectTest, ASpotTheViewsDoNotConfirmIsRejected) {
+  const ThermalMesh base = Plane(1.0, 0.01, [](double x, double y) {
+    return Plateau(std::hypot(x, y) - 0.05, 20, 30, 0.005);  // ΔT 10 K, r 5 cm
+  });
+  auto with = [&](double views, double spot_std_c) {
+    ThermalMesh mesh = base;
+    mesh.views.assign(mesh.points_in_world.size(), 40);
+    mesh.std_c.assign(mesh.points_in_world.size(), 0.2);
+    for (size_t v = 0; v < mesh.points_in_world.size(); ++v) {
+      if (mesh.points_in_world[v].norm() < 0.06) {
+        mesh.views[v] = views;
+        mesh.std_c[v] = spot_std_c;
+      }
+    }
+    return DetectSpots(mesh, SpotOptions());
+  };
+  auto rejected_for = [](const SpotDetection& d, const std::string& option) {
+    for (const RejectedCandidate& r : d.rejected) {
+      if (r.reason.find(option) != std::string::npos) return true;
+    }
+    return false;
+  };
+  // Seen 40 times, the views within 0.4 K of each other: found, the spread reported.
+  const SpotDetection agreed = with(40, 0.4);
+  ASSERT_EQ(agreed.spots.size(), 1u);
+  EXPECT_NEAR(agreed.spots[0].mean_view_spread_c, 0.4, 1e-9);
+  EXPECT_NEAR(agreed.spots[0].mean_views, 40, 1e-9);
+  // The views 6 K apart about a 10 K spot (a reflection moving with the viewpoint): rejected.
+  const SpotDetection disputed = with(40, 6);
+  EXPECT_TRUE(disputed.spots.empty());
+  EXPECT_TRUE(rejected_for(disputed, "max_view_spread_ratio"));
+  // 4 K apart (0.4 of ΔT): still found; and with the rule off, the 6 K one is.
+  EXPECT_EQ(with(40, 4).spots.size(), 1u);
+  ThermalMesh mesh = base;
+  mesh.std_c.assign(mesh.points_in_world.size(), 6);
+  SpotOptions off;
+  off.max_view_spread_ratio = 0;
+  EXPECT_EQ(DetectSpots(mesh, off).spots.size(), 1u);
+  // Seen twice: unconfirmed.
+  const SpotDetection glimpsed = with(2, 0.4);
+  EXPECT_TRUE(glimpsed.spots.empty());
+  EXPECT_TRUE(rejected_for(glimpsed, "min_views"));
+}
+
 TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   SpotOptions o;
   EXPECT_EQ(o.Check(), "");
@@ -321,6 +367,9 @@ TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   o = SpotOptions();
   o.ring_normal_radius_m = -0.01;
   EXPECT_NE(o.Check().find("ring_normal_radius_m"), std::string::npos);
+  o = SpotOptions();
+  o.max_view_spread_ratio = -0.5;
+  EXPECT_NE(o.Check().find("max_view_spread_ratio"), std::string::npos);
   o = SpotOptions();
   o.severity = {{5, "b", ""}, {1, "a", ""}};
   EXPECT_NE(o.Check().find("severity[1].min_delta_k"), std::string::npos);
