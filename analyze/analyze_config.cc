@@ -27,7 +27,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
                                   {"detect", "reference", "ambient_c", "min_delta_k", "hot_above_c",
                                    "cold_below_c", "kinds", "boundary_fraction", "min_area_m2",
                                    "max_area_m2", "background_radius_m", "min_ring_coverage", "min_ring_area_ratio",
-                                   "min_contrast_sigmas", "min_views", "max_view_spread_ratio",
+                                   "min_contrast_sigmas", "min_views", "min_views_ratio", "max_view_spread_ratio",
                                    "max_candidates"});
   if (f.Has("detect")) {
     const std::string s = reader.String(f.Required("detect"), f.Path("detect"));
@@ -66,6 +66,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
   number("min_ring_area_ratio", &o->min_ring_area_ratio);
   number("min_contrast_sigmas", &o->min_contrast_sigmas);
   number("min_views", &o->min_views);
+  number("min_views_ratio", &o->min_views_ratio);
   number("max_view_spread_ratio", &o->max_view_spread_ratio);
   if (f.Has("max_candidates")) o->max_candidates = reader.Integer(f.Required("max_candidates"), f.Path("max_candidates"));
   if (f.Has("kinds")) {

@@ -19,6 +19,7 @@
 //     background_radius_m: 0.3
 //     min_contrast_sigmas: 4        # |ΔT| >= 4 × the surroundings' spread
 //     min_views: 3                  # reconstruct's meshes: seen in >= 3 thermal frames
+//     min_views_ratio: 0.5          # ... and in >= half the frames that saw its surroundings
 //     max_view_spread_ratio: 0.5    # ... whose spread across views is < 0.5 |ΔT|
 //   severity:                       # replaces the NETA table
 //     - {name: minor, min_delta_k: 1, action: "Monitor"}

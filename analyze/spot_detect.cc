@@ -166,6 +166,7 @@ struct Ring {
   double area_m2 = 0;
   double coverage = 0;      // observed area / expected area
   int vertices = 0;
+  double mean_views = kNaN;  // area-weighted temperature_views (meshes from reconstruct)
 };
 
 // The decay length of the spot's own tail, m: |level − reference| over the median
@@ -251,6 +252,7 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, const std::ve
     queue.emplace(0.0, v);
   }
   std::vector<std::pair<double, double>> samples;
+  double ring_views = 0, ring_views_area = 0;
   Ring ring;
   while (!queue.empty()) {
     const auto [d, v] = queue.top();
@@ -259,6 +261,10 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, const std::ve
     if (d >= gap && std::isfinite(c.field[U(v)])) {
       samples.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
       ring.area_m2 += c.vertex_area[U(v)];
+      if (!c.mesh.views.empty() && std::isfinite(c.mesh.views[U(v)])) {
+        ring_views += c.vertex_area[U(v)] * c.mesh.views[U(v)];
+        ring_views_area += c.vertex_area[U(v)];
+      }
     }
     const Eigen::Vector3d& source_normal = border_normals[U(source[U(v)])];
     for (int i = c.graph.offsets[U(v)]; i < c.graph.offsets[U(v) + 1]; ++i) {
@@ -274,6 +280,7 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, const std::ve
   }
   for (int v : touched) distance[U(v)] = std::numeric_limits<double>::infinity();
   ring.vertices = static_cast<int>(samples.size());
+  if (ring_views_area > 0) ring.mean_views = ring_views / ring_views_area;
   // A region whose outline runs along mesh borders (a pane meshed on its own) has no
   // iso-line there: its perimeter is at least that of the disc of its area.
   const double outline_m = std::max(perimeter_m, 2 * kPi * r);
@@ -418,6 +425,10 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     *reason = "area below min_area_m2";
   } else if (area > 0 && views / area < o.min_views) {
     *reason = "seen in fewer than min_views thermal frames (" + core::RoundedNumber(views / area) + ")";
+  } else if (area > 0 && std::isfinite(m->ring.mean_views) &&
+             views / area < o.min_views_ratio * m->ring.mean_views) {
+    *reason = core::StringPrintf("seen in %.1f thermal frames, its surroundings in %.1f (min_views_ratio)",
+                                 views / area, m->ring.mean_views);
   } else if (!absolute && o.max_view_spread_ratio > 0 && view_spread >= o.max_view_spread_ratio * delta) {
     *reason = core::StringPrintf("the views disagree: spread %.2f K across views for a ΔT of %.2f K "
                                  "(max_view_spread_ratio)", view_spread, delta);

@@ -134,6 +134,13 @@ struct SpotOptions {
   // 0.04-0.09 (the blurred rim's spread included), a false one of 4 K at 0.75; most
   // reflections do not show (0.1: the walk sees them from one side).
   double max_view_spread_ratio = 0.5;
+  // ... and one seen in fewer frames than this fraction of its surroundings' (the ring's
+  // area-weighted mean temperature_views), in [0, 1] (0: off). A defect on a surface the scan
+  // covered is in at least about as many frames as the surface round it (measured on a
+  // reconstructed walk: the three found spots 1.0-1.4); a patch glimpsed past an occluding
+  // edge, where thermal and depth edges misregister, is in a few (two cold specks: 0.13 and
+  // 0.27, 3-4 frames). 0.5: half as many.
+  double min_views_ratio = 0.5;
   // Candidates measured at most, strongest first, >= 1: a bound on the time a very noisy
   // model can take (each weak candidate may flood up to max_area_m2 of surface). The count
   // left unmeasured is reported.

@@ -349,6 +349,20 @@ TEST(SpotDetectTest, ASpotTheViewsDoNotConfirmIsRejected) {
   const SpotDetection glimpsed = with(2, 0.4);
   EXPECT_TRUE(glimpsed.spots.empty());
   EXPECT_TRUE(rejected_for(glimpsed, "min_views"));
+  // Seen 8 times where the plane round it was seen 40 (< 0.5 of them): a glimpse, rejected;
+  // 24 times (0.6): found; with the rule off, 8 is.
+  const SpotDetection few = with(8, 0.4);
+  EXPECT_TRUE(few.spots.empty());
+  EXPECT_TRUE(rejected_for(few, "min_views_ratio"));
+  EXPECT_EQ(with(24, 0.4).spots.size(), 1u);
+  SpotOptions no_ratio;
+  no_ratio.min_views_ratio = 0;
+  ThermalMesh seen_less = base;
+  seen_less.views.assign(seen_less.points_in_world.size(), 40);
+  for (size_t v = 0; v < seen_less.points_in_world.size(); ++v) {
+    if (seen_less.points_in_world[v].norm() < 0.06) seen_less.views[v] = 8;
+  }
+  EXPECT_EQ(DetectSpots(seen_less, no_ratio).spots.size(), 1u);
 }
 
 TEST(SpotDetectTest, OptionsAndSeverityChecks) {
@@ -370,6 +384,9 @@ TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   o = SpotOptions();
   o.max_view_spread_ratio = -0.5;
   EXPECT_NE(o.Check().find("max_view_spread_ratio"), std::string::npos);
+  o = SpotOptions();
+  o.min_views_ratio = 1.5;
+  EXPECT_NE(o.Check().find("min_views_ratio"), std::string::npos);
   o = SpotOptions();
   o.severity = {{5, "b", ""}, {1, "a", ""}};
   EXPECT_NE(o.Check().find("severity[1].min_delta_k"), std::string::npos);

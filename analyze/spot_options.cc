@@ -88,6 +88,7 @@ std::string SpotOptions::Check() const {
     return core::OptionFail("min_contrast_sigmas", min_contrast_sigmas, "in [0, 100]");
   }
   if (!core::InRange(min_views, 0, 1e6)) return core::OptionFail("min_views", min_views, "in [0, 1e6]");
+  if (!core::InRange(min_views_ratio, 0, 1)) return core::OptionFail("min_views_ratio", min_views_ratio, "in [0, 1]");
   if (!core::InRange(max_view_spread_ratio, 0, 1e6)) {
     return core::OptionFail("max_view_spread_ratio", max_view_spread_ratio, "in [0, 1e6]");
   }
