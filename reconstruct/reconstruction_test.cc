@@ -365,7 +365,9 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
     fused += f.fused;
     recovered += f.status == FrameStatus::kRecovered;
     // A recovery, and a frame the ICP moved far from the prediction (a jerk), raycast at once.
-    if (f.status == FrameStatus::kRecovered) EXPECT_GT(f.raycast_ms, 0) << "frame " << f.index;
+    if (f.status == FrameStatus::kRecovered) {
+      EXPECT_GT(f.raycast_ms, 0) << "frame " << f.index;
+    }
     if (f.fused && f.correction_m > third.reuse_max_correction_m) {
       ++jerks;
       EXPECT_GT(f.raycast_ms, 0) << "frame " << f.index;
