@@ -293,6 +293,19 @@ Ring MeasureRing(const Context& c, const std::vector<int>& region, const std::ve
   return ring;
 }
 
+// Area-weighted mean of a per-vertex field over the region's vertices where it is finite;
+// NaN when the mesh has no such field or no finite value there.
+double RegionMean(const Context& c, const std::vector<int>& region, const std::vector<double>& field) {
+  if (field.empty()) return kNaN;
+  double sum = 0, area = 0;
+  for (int v : region) {
+    if (!std::isfinite(field[U(v)])) continue;
+    sum += c.vertex_area[U(v)] * field[U(v)];
+    area += c.vertex_area[U(v)];
+  }
+  return area > 0 ? sum / area : kNaN;
+}
+
 // Area-weighted mean of the hottest 5 % of the region: the peak that sets the level, robust
 // to one noisy vertex (on a plateau the maximum of N noisy vertices sits ~2σ high) while equal
 // to the maximum on an exact mesh whose extreme is a plateau or a line.
@@ -399,22 +412,8 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     if (std::abs(m->ring.reference - reference) < 1e-3 && std::abs(next_level - level) < 1e-3) break;
     reference = m->ring.reference;
   }
-  double views = 0, area = 0, view_spread = 0, spread_area = 0;
-  if (!c.mesh.views.empty()) {
-    for (int v : m->region) {
-      if (!std::isfinite(c.mesh.views[U(v)])) continue;
-      views += c.vertex_area[U(v)] * c.mesh.views[U(v)];
-      area += c.vertex_area[U(v)];
-    }
-  }
-  if (!c.mesh.std_c.empty()) {  // as FillSpot's mean_view_spread_c
-    for (int v : m->region) {
-      if (!std::isfinite(c.mesh.std_c[U(v)])) continue;
-      view_spread += c.vertex_area[U(v)] * c.mesh.std_c[U(v)];
-      spread_area += c.vertex_area[U(v)];
-    }
-    view_spread = spread_area > 0 ? view_spread / spread_area : 0.0;
-  }
+  const double views = RegionMean(c, m->region, c.mesh.views);
+  const double view_spread = RegionMean(c, m->region, c.mesh.std_c);
   const double delta = std::abs(m->peak - m->reference);
   const double spread = std::isfinite(m->ring.spread) ? m->ring.spread : 0.0;
   if (!absolute && !(delta >= o.min_delta_k)) {
@@ -423,12 +422,11 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     *reason = "ΔT below min_contrast_sigmas × the surroundings' spread (" + core::RoundedNumber(spread) + " K)";
   } else if (m->iso.area_m2 < o.min_area_m2) {
     *reason = "area below min_area_m2";
-  } else if (area > 0 && views / area < o.min_views) {
-    *reason = "seen in fewer than min_views thermal frames (" + core::RoundedNumber(views / area) + ")";
-  } else if (area > 0 && std::isfinite(m->ring.mean_views) &&
-             views / area < o.min_views_ratio * m->ring.mean_views) {
+  } else if (views < o.min_views) {  // false for NaN (no views field)
+    *reason = "seen in fewer than min_views thermal frames (" + core::RoundedNumber(views) + ")";
+  } else if (views < o.min_views_ratio * m->ring.mean_views) {
     *reason = core::StringPrintf("seen in %.1f thermal frames, its surroundings in %.1f (min_views_ratio)",
-                                 views / area, m->ring.mean_views);
+                                 views, m->ring.mean_views);
   } else if (!absolute && o.max_view_spread_ratio > 0 && view_spread >= o.max_view_spread_ratio * delta) {
     *reason = core::StringPrintf("the views disagree: spread %.2f K across views for a ΔT of %.2f K "
                                  "(max_view_spread_ratio)", view_spread, delta);
@@ -459,19 +457,15 @@ void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
   spot->peak_in_world = mesh.points_in_world[U(peak_vertex)];
   spot->delta_k = spot->peak_c - spot->reference_c;
   // Area-weighted means over the region's vertices.
-  double area = 0, mean = 0, confidence = 0, views = 0, spread = 0, spread_area = 0;
+  double area = 0, mean = 0, confidence = 0, views = 0;
   for (int v : m.region) {
     const double a = c.vertex_area[U(v)];
     area += a;
     mean += a * t[U(v)];
     if (!mesh.confidence.empty()) confidence += a * mesh.confidence[U(v)];
     if (!mesh.views.empty()) views += a * mesh.views[U(v)];
-    if (!mesh.std_c.empty() && std::isfinite(mesh.std_c[U(v)])) {
-      spread += a * mesh.std_c[U(v)];
-      spread_area += a;
-    }
   }
-  spot->mean_view_spread_c = spread_area > 0 ? spread / spread_area : kNaN;
+  spot->mean_view_spread_c = RegionMean(c, m.region, mesh.std_c);
   spot->mean_c = area > 0 ? mean / area : spot->peak_c;
   spot->mean_confidence = mesh.confidence.empty() || area <= 0 ? kNaN : confidence / area;
   spot->mean_views = mesh.views.empty() || area <= 0 ? kNaN : views / area;
