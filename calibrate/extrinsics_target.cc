@@ -18,6 +18,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calibrate/hole_corner.h"
 #include "core/error.h"
 #include "core/option_check.h"
 #include "core/strings.h"
@@ -46,6 +47,10 @@ std::string TargetExtrinsicsOptions::Check() const {
   if (!(huber_sigmas >= 0.5 && huber_sigmas <= 100)) return OptionFail("huber_sigmas", huber_sigmas, "in [0.5, 100]");
   if (!(reweight_iterations >= 0 && reweight_iterations <= 20)) {
     return OptionFail("reweight_iterations", reweight_iterations, "in [0, 20]");
+  }
+  if (!(depth_affine_sigma_per_m == 0 ||
+        (depth_affine_sigma_per_m >= kMinDepthAffineSigmaPerM && depth_affine_sigma_per_m <= 0.1))) {
+    return OptionFail("depth_affine_sigma_per_m", depth_affine_sigma_per_m, "0 (automatic) or in [1e-5, 0.1] /m");
   }
   if (!(min_reciprocal_condition > 0 && min_reciprocal_condition <= 1e-3)) {
     return OptionFail("min_reciprocal_condition", min_reciprocal_condition, "in (0, 1e-3]");
@@ -99,13 +104,18 @@ class ProjectCost : public ceres::SizedCostFunction<2, 3> {
 
 // Reprojection of a target corner: (projected − observed) / σ, px / px. The corner moves
 // out of its hole by the camera's apparent edge shift (m, in the target plane: `outward` is
-// the corner's direction from its hole's centre, (±1, ±1, 0)).
+// the corner's direction from its hole's centre, (±1, ±1, 0)), then to where the camera
+// sees it through a plate of thickness_m (calibrate/hole_corner.h: the camera centre in
+// the target frame picks the visible edges).
 struct CornerResidual {
   CornerResidual(const core::CameraModel& camera, const Eigen::Vector3d& corner_in_target, const Eigen::Vector3d& outward,
-                 const Eigen::Vector2d& observed, const PoseRef& still, const PoseRef& extrinsic, double sigma_px)
+                 double thickness_m, const Eigen::Vector2d& observed, const PoseRef& still, const PoseRef& extrinsic,
+                 double sigma_px)
       : project(new ProjectCost(camera)),
-        rotated_corner(still.rotation * corner_in_target),
-        rotated_outward(still.rotation * outward),
+        corner(corner_in_target),
+        outward(outward),
+        thickness_m(thickness_m),
+        still_R0(still.rotation),
         still_t(still.translation),
         extrinsic_R0t(extrinsic.rotation.transpose()),
         extrinsic_t(extrinsic.translation),
@@ -114,11 +124,28 @@ struct CornerResidual {
 
   template <typename T>
   bool operator()(const T* extrinsic, const T* still, const T* edge_shift, T* residual) const {
-    const T corner[3] = {rotated_corner.x() + edge_shift[0] * rotated_outward.x(),
-                         rotated_corner.y() + edge_shift[0] * rotated_outward.y(),
-                         rotated_corner.z() + edge_shift[0] * rotated_outward.z()};
+    T shifted[2] = {corner.x() + edge_shift[0] * outward.x(), corner.y() + edge_shift[0] * outward.y()};
+    T xy[2] = {shifted[0], shifted[1]};
+    if (thickness_m > 0) {
+      // The camera centre (the extrinsic's translation, depth frame) in the target frame:
+      // R0ᵀ · R(−ω) · (c − t_still).
+      T c[3];
+      for (int i = 0; i < 3; ++i) c[i] = extrinsic_t[i] + extrinsic[3 + i] - still_t[i] - still[3 + i];
+      const T minus_w[3] = {-still[0], -still[1], -still[2]};
+      T turned[3];
+      ceres::AngleAxisRotatePoint(minus_w, c, turned);
+      T camera_in_target[3];
+      for (int r = 0; r < 3; ++r) {
+        camera_in_target[r] = still_R0(0, r) * turned[0] + still_R0(1, r) * turned[1] + still_R0(2, r) * turned[2];
+      }
+      if (!(camera_in_target[2] < T(0))) return false;  // behind the plate: not a view of it
+      const double out[2] = {outward.x(), outward.y()};
+      VisibleHoleCorner(shifted, out, thickness_m, camera_in_target, xy);
+    }
+    T rotated[3];
+    for (int r = 0; r < 3; ++r) rotated[r] = still_R0(r, 0) * xy[0] + still_R0(r, 1) * xy[1];
     T in_depth[3];
-    ceres::AngleAxisRotatePoint(still, corner, in_depth);
+    ceres::AngleAxisRotatePoint(still, rotated, in_depth);
     for (int i = 0; i < 3; ++i) in_depth[i] += still_t[i] + still[3 + i] - extrinsic_t[i] - extrinsic[3 + i];
     const T minus_w[3] = {-extrinsic[0], -extrinsic[1], -extrinsic[2]};
     T turned[3];
@@ -135,7 +162,10 @@ struct CornerResidual {
   }
 
   ceres::CostFunctionToFunctor<2, 3> project;
-  Eigen::Vector3d rotated_corner, rotated_outward, still_t;
+  Eigen::Vector3d corner, outward;  // target frame, corner.z() = 0
+  double thickness_m;
+  Eigen::Matrix3d still_R0;
+  Eigen::Vector3d still_t;
   Eigen::Matrix3d extrinsic_R0t;
   Eigen::Vector3d extrinsic_t;
   Eigen::Vector2d observed;
@@ -147,10 +177,11 @@ struct CornerResidual {
 // error is spatially correlated (the correlator's window, a device-fixed low-frequency
 // disparity distortion), so points of a cell are not independent; their mean's σ is
 // sqrt(σ_white² / n + σ_cell²), both estimated from the residuals.
-// The depth points are corrected by the depth model [a, b] (1/m): z' = z + z² (a + b r²),
-// r² = x² + y² of its ray on the z = 1 plane — a disparity offset and a radial bowl of
-// disparity error (Smisek et al. 2011, Herrera et al. 2012), which structured-light depth
-// cameras carry and which would otherwise tilt and shift the planes.
+// The depth points are corrected by the depth model [a, b, c_x, c_y] (1/m):
+// z' = z + z² (a + b r² + c_x x + c_y y), (x, y) the pixel's ray on the z = 1 plane and
+// r² = x² + y² — a disparity offset, a radial bowl and a tilt of disparity error (Smisek et
+// al. 2011, Herrera et al. 2012) to first order in inverse depth (1/z' ≈ 1/z − δ), which
+// structured-light depth cameras carry and which would otherwise tilt and shift the planes.
 struct PlaneResidual {
   PlaneResidual(std::vector<Eigen::Vector3d> points_in_depth, const PoseRef& still, double sigma_m)
       : points(std::move(points_in_depth)), normal0(still.rotation.col(2)), still_t(still.translation), sigma_m(sigma_m) {
@@ -158,10 +189,12 @@ struct PlaneResidual {
       mean += q / static_cast<double>(points.size());
       mean_z += q * q.z() / static_cast<double>(points.size());
       mean_bowl += q * q.z() * (q.x() * q.x() + q.y() * q.y()) / (q.z() * q.z()) / static_cast<double>(points.size());
+      mean_x += q * q.x() / static_cast<double>(points.size());
+      mean_y += q * q.y() / static_cast<double>(points.size());
     }
   }
   // The cell's mean point (the depth model is linear in its parameters: the mean of the
-  // corrected points is mean + a · mean(q z) + b · mean(q z r²); a is held at 0).
+  // corrected points is mean + a · mean(q z) + b · mean(q z r²) + c_x · mean(q X) + c_y · mean(q Y)).
   // still_error: the still's depth plane error [offset m, tilt about target y, about target
   // x (rad)] at the cell's centre (centre_m, target plane, from the plate's centre).
   template <typename T>
@@ -172,7 +205,8 @@ struct PlaneResidual {
     ceres::AngleAxisRotatePoint(still, n0, n);
     T d = T(0);
     for (int i = 0; i < 3; ++i) {
-      d += n[i] * (mean[i] + depth_model[0] * mean_z[i] + depth_model[1] * mean_bowl[i] - still_t[i] - still[3 + i]);
+      d += n[i] * (mean[i] + depth_model[0] * mean_z[i] + depth_model[1] * mean_bowl[i] + depth_model[2] * mean_x[i] +
+                   depth_model[3] * mean_y[i] - still_t[i] - still[3 + i]);
     }
     d -= common_offset[0] + still_error[0] + still_error[1] * centre_m.x() + still_error[2] * centre_m.y();
     residual[0] = d / sigma_m;
@@ -181,6 +215,7 @@ struct PlaneResidual {
   Eigen::Vector2d centre_m = Eigen::Vector2d::Zero();
   std::vector<Eigen::Vector3d> points;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero(), mean_z = Eigen::Vector3d::Zero(), mean_bowl = Eigen::Vector3d::Zero();
+  Eigen::Vector3d mean_x = Eigen::Vector3d::Zero(), mean_y = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal0, still_t;
   double sigma_m;
 };
@@ -197,6 +232,18 @@ struct StillErrorPrior {
   }
 };
 
+// Prior of the depth model's affine part (a, c_x, c_y): N(0, σ) each, 1/m.
+struct AffinePrior {
+  double sigma_per_m;
+  template <typename T>
+  bool operator()(const T* m, T* residual) const {
+    residual[0] = m[0] / sigma_per_m;
+    residual[1] = m[2] / sigma_per_m;
+    residual[2] = m[3] / sigma_per_m;
+    return true;
+  }
+};
+
 struct OffsetPrior {
   double sigma_m;
   template <typename T>
@@ -209,7 +256,8 @@ struct OffsetPrior {
 // The depth point corrected by the depth model (PlaneResidual).
 Eigen::Vector3d CorrectDepth(const Eigen::Vector3d& q, const double* depth_model) {
   const double r2 = (q.x() * q.x() + q.y() * q.y()) / (q.z() * q.z());
-  return q * (1 + q.z() * (depth_model[0] + depth_model[1] * r2));
+  return q * (1 + q.z() * (depth_model[0] + depth_model[1] * r2 + depth_model[2] * q.x() / q.z() +
+                           depth_model[3] * q.y() / q.z()));
 }
 
 struct CameraObservations {
@@ -467,7 +515,21 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   const auto solve_start = Clock::now();
   const PoseRef thermal_ref(rig.depth_from_thermal), rgb_ref(rig.depth_from_rgb);
   double thermal_params[6] = {0, 0, 0, 0, 0, 0}, rgb_params[6] = {0, 0, 0, 0, 0, 0};
-  double depth_model[2] = {0, 0};
+  double depth_model[4] = {0, 0, 0, 0};  // [a, b, c_x, c_y], 1/m: PlaneResidual
+  // Prior σ of the affine part: given, or the RMS of the calibrated field over its nodes (a
+  // device's affine error, which no wall shows, taken as large as the rest of its field),
+  // or kDefaultDepthAffineSigmaPerM without a calibration.
+  const bool estimate_affine = o.depth_affine && rig.depth_correction.has_value();
+  double affine_sigma = o.depth_affine_sigma_per_m;
+  if (affine_sigma == 0) {
+    affine_sigma = TargetExtrinsicsOptions::kDefaultDepthAffineSigmaPerM;
+    if (rig.depth_correction && !rig.depth_correction->offset_per_m.empty()) {
+      double sum = 0;
+      for (double v : rig.depth_correction->offset_per_m) sum += v * v;
+      affine_sigma = std::max(std::sqrt(sum / static_cast<double>(rig.depth_correction->offset_per_m.size())),
+                              TargetExtrinsicsOptions::kMinDepthAffineSigmaPerM);
+    }
+  }
   double thermal_shift[1] = {0}, rgb_shift[1] = {0};
   double common_offset[1] = {0};
   // Direction of each corner from its hole's centre (TL, TR, BR, BL: core::TargetCorners).
@@ -495,13 +557,24 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
       }
     }
     problem = std::make_unique<ceres::Problem>();
-    problem->AddParameterBlock(depth_model, 2);
+    problem->AddParameterBlock(depth_model, 4);
     // The offset a stays 0 (depth's scale against the corners' is weakly determined, and a
     // free offset lets the first solve wander); the bowl b is freed once the poses are good.
-    if (o.depth_model && round > 0) {
-      problem->SetManifold(depth_model, new ceres::SubsetManifold(2, {0}));
-    } else {
+    // Which of [a, b, c_x, c_y] are free: none in the first round (the poses are rough);
+    // then the bowl b with depth_model, the affine part (a, c_x, c_y) with depth_affine and
+    // a calibrated depth_correction, under its prior.
+    std::vector<int> fixed;
+    if (!(o.depth_model && round > 0)) fixed.push_back(1);
+    if (!(estimate_affine && round > 0)) fixed.insert(fixed.end(), {0, 2, 3});
+    if (fixed.size() == 4) {
       problem->SetParameterBlockConstant(depth_model);
+    } else if (!fixed.empty()) {
+      std::sort(fixed.begin(), fixed.end());
+      problem->SetManifold(depth_model, new ceres::SubsetManifold(4, fixed));
+    }
+    if (estimate_affine && round > 0) {
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<AffinePrior, 3, 4>(new AffinePrior{affine_sigma}),
+                                nullptr, depth_model);
     }
     ceres::LossFunction* loss = new ceres::HuberLoss(o.huber_sigmas);
     for (size_t k = 0; k < data.size(); ++k) {
@@ -513,7 +586,8 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
         for (size_t i = 0; i < obs->ids.size(); ++i) {
           problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6, 6, 1>(
                                         new CornerResidual(*camera, corners[obs->ids[i]], outward(obs->ids[i]),
-                                                           obs->pixels[i], still_refs[k], *ref, sigma)),
+                                                           target.thickness_m, obs->pixels[i], still_refs[k], *ref,
+                                                           sigma)),
                                     loss, params, d.params, shift);
         }
       }
@@ -524,7 +598,7 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
         const double sigma = std::sqrt(sigma_plane * sigma_plane / n + sigma_cell * sigma_cell);
         auto* residual = new PlaneResidual(std::move(points), still_refs[k], sigma);
         residual->centre_m = d.cell_centres[&cell - d.cells.data()];
-        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PlaneResidual, 1, 6, 2, 3, 1>(residual), loss,
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PlaneResidual, 1, 6, 4, 3, 1>(residual), loss,
                                   d.params, depth_model, d.still_error, common_offset);
       }
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<StillErrorPrior, 3, 3>(
@@ -573,8 +647,15 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
                        thermal_shift[0]},
             std::tuple{&d.rgb, &*rig.rgb, &depth_from_rgb, &rgb_values, &result.rgb_residuals, rgb_shift[0]}}) {
         const core::Rigid3d camera_from_target = extrinsic->Inverse() * depth_from_target;
+        const Eigen::Vector3d camera_in_target = camera_from_target.Inverse().translation;
         for (size_t i = 0; i < obs->ids.size(); ++i) {
-          const Eigen::Vector3d corner = corners[obs->ids[i]] + shift * outward(obs->ids[i]);
+          Eigen::Vector3d corner = corners[obs->ids[i]] + shift * outward(obs->ids[i]);
+          if (target.thickness_m > 0 && camera_in_target.z() < 0) {
+            const double shifted[2] = {corner.x(), corner.y()}, out[2] = {outward(obs->ids[i]).x(), outward(obs->ids[i]).y()};
+            double visible[2];
+            VisibleHoleCorner(shifted, out, target.thickness_m, camera_in_target.data(), visible);
+            corner = Eigen::Vector3d(visible[0], visible[1], 0);
+          }
           const Eigen::Vector2d r = camera->Project(camera_from_target * corner) - obs->pixels[i];
           values->push_back(r.x());
           values->push_back(r.y());
@@ -638,7 +719,9 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   result.sigma_cell_m = sigma_cell;
   result.sigma_still_offset_m = sigma_still_offset;
   result.sigma_still_tilt_rad = sigma_still_tilt;
-  result.depth_model = Eigen::Vector2d(depth_model[0], depth_model[1]);
+  result.depth_model = Eigen::Vector4d(depth_model[0], depth_model[1], depth_model[2], depth_model[3]);
+  result.depth_affine_sigma_per_m = estimate_affine ? affine_sigma : 0;
+  result.target_thickness_m = target.thickness_m;
   result.thermal_edge_shift_m = thermal_shift[0];
   result.rgb_edge_shift_m = rgb_shift[0];
 

@@ -15,11 +15,13 @@
 // Then one joint least-squares (Ceres) over depth_from_thermal, depth_from_rgb and one
 // depth_from_target per still, with reprojection residuals of the corners in thermal and
 // colour (px; the rig's intrinsics and distortion, fixed; core::CameraModel::Project with its
-// analytic Jacobian inside autodiff) and plate residuals in depth: the signed distance to
+// analytic Jacobian inside autodiff; each corner where the camera sees it through a plate of
+// target.yaml's thickness_m, calibrate/hole_corner.h) and plate residuals in depth: the signed distance to
 // the plane z = 0 of the target frame of the mean point of each plane_cell_m cell (m). Each
 // residual is divided by its σ and under a Huber loss. Nuisance parameters that keep the
 // covariance honest: each camera's apparent edge shift of the holes (edge_shift), the depth
-// camera's radial disparity bowl (depth_model), and each still's depth plane error (offset,
+// camera's radial disparity bowl (depth_model) and, with a calibrated depth_correction, the
+// affine part of its error no wall shows (depth_affine), and each still's depth plane error (offset,
 // two tilts) as random effects with σ estimated by EM (still_errors), plus the depth's
 // common range bias with a prior of the depth's correlated σ. The σ of every residual type
 // (corners per camera; plate points' white σ and cells' correlated σ) are re-estimated from
@@ -31,11 +33,12 @@
 // below min_reciprocal_condition) on the whole problem: the still poses and every nuisance
 // parameter are marginalised.
 //
-// Measured (fixtures' extrinsics-target sessions, 3 seeds, true intrinsics, nominal
-// extrinsics 1°/1 cm off as the start): full size (20 stills) rotation 0.10–0.19°,
-// translation 1.7–2.9 mm, truth within 3.7σ; small (6 stills) 0.06–0.53°, 1.7–3.1 mm,
-// within 3.4σ. Thermal and colour errors are nearly equal in every run: what limits both is
-// the depth camera's systematic error (the fixtures' Kinect-style disparity distortion).
+// Measured (fixtures' extrinsics-target sessions, true intrinsics, nominal extrinsics
+// 1°/1 cm off as the start): full size (20 stills), 5 seeds, with the depth correction
+// calibrated on the depth-wall session: rotation 0.026–0.098°, translation 0.54–1.67 mm,
+// truth within 2.8σ; without a correction 0.08–0.16°, 0.6–1.9 mm, within 3.3σ; small (6
+// stills, no correction) 0.06–0.53°, 1.0–3.5 mm, within 3.5σ. Thermal and colour errors are
+// nearly equal in every run: what limits both is the depth camera's systematic error.
 
 #include <functional>
 #include <string>
@@ -80,13 +83,30 @@ struct TargetExtrinsicsOptions {
   // RANSAC inlier threshold, m, (0, 0.2].
   double ransac_threshold_m = 0.015;
   int ransac_iterations = 200;  // [1, 100000]
-  // Estimate the depth camera's radial disparity bowl with the extrinsics: z' = z + b z² r²
-  // (r the pixel's ray's distance from the axis on the z = 1 plane; the offset a of the
-  // model z' = z + z² (a + b r²) stays 0: a free one is barely determined by the stills
-  // and ruins the translations). Structured-light depth carries one (mm at 1 m);
-  // unmodelled, it tilts the plate planes (on the fixtures' sessions: rotation errors
-  // 0.21 / 0.53 / 0.09° with it vs 0.37 / 0.55 / 0.27° without, small sessions).
+  // Estimate the depth camera's radial disparity bowl with the extrinsics: the b of the
+  // depth model z' = z + z² (a + b r² + c_x x + c_y y) (r, x, y of the pixel's ray on the
+  // z = 1 plane). Structured-light depth carries one (mm at 1 m) unless the rig's
+  // depth_correction removed it; unmodelled, it tilts the plate planes (on the fixtures'
+  // small sessions: rotation errors 0.21 / 0.53 / 0.09° with it vs 0.37 / 0.55 / 0.27°
+  // without).
   bool depth_model = true;
+  // With a calibrated depth_correction in the rig: estimate the affine part (a, c_x, c_y)
+  // of the depth error left, each under a zero-mean prior of σ depth_affine_sigma_per_m.
+  // It is the part of the field that `calibrate depth` cannot see (a wall at any pose stays
+  // a plane under it) and that only the plate's known size, seen by the cameras at several
+  // distances, measures: a offsets inverse depth (z² a: 1.9 mm at 1 m on the fixtures'
+  // device) and c_x, c_y tilt it. Held at 0 it biased the extrinsics by that much with a σ
+  // that did not know it (fixtures' full sessions: truth 2.2–4.8σ off; estimated, within
+  // 2σ). Without a depth_correction the whole field is left, the bowl b and the common
+  // range offset carry it, and freeing a, c_x, c_y as well only added variance (rotation
+  // 0.06–0.22° vs 0.08–0.14°, full sessions): not estimated then.
+  bool depth_affine = true;
+  // Prior σ of a, c_x and c_y, 1/m: 0 (automatic) takes the RMS of the rig's calibrated
+  // depth_correction over its nodes — a device's unseen affine error as large as its seen
+  // field — or kDefaultDepthAffineSigmaPerM without one; else in [1e-5, 0.1].
+  static constexpr double kDefaultDepthAffineSigmaPerM = 0.003;  // 0.13 px of disparity at f·b = 43 px·m
+  static constexpr double kMinDepthAffineSigmaPerM = 1e-5;
+  double depth_affine_sigma_per_m = 0;
   // Estimate each camera's apparent edge shift of the holes with the extrinsics: corners
   // found outside (or inside) the true hole edges by the same distance in every view
   // (blur and threshold, the holes' walls, heat bleeding). Unmodelled, a hole that looks
@@ -146,8 +166,11 @@ struct TargetExtrinsicsResult {
   double sigma_still_tilt_rad = 0;
   int plane_points = 0;
   double plane_rms_m = 0;
-  // The depth model [a, b] (1/m) estimated (zero without options.depth_model).
-  Eigen::Vector2d depth_model = Eigen::Vector2d::Zero();
+  // The depth model [a, b, c_x, c_y] (1/m, TargetExtrinsicsOptions::depth_model) estimated
+  // (b zero without options.depth_model; a, c_x, c_y zero without options.depth_affine).
+  Eigen::Vector4d depth_model = Eigen::Vector4d::Zero();
+  double target_thickness_m = 0;        // target.yaml's plate thickness, modelled, m
+  double depth_affine_sigma_per_m = 0;  // the prior σ used for a, c_x, c_y, 1/m (0: not estimated)
   // Apparent edge shift of the holes in thermal and colour, m (+: holes look larger).
   double thermal_edge_shift_m = 0;
   double rgb_edge_shift_m = 0;

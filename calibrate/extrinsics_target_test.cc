@@ -9,11 +9,13 @@
 
 #include <gtest/gtest.h>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/rig.h"
 #include "core/scan.h"
 #include "fixtures/cached_test_data.h"
 #include "fixtures/calibration_sessions.h"
+#include "tests/support.h"
 
 namespace hw::calibrate {
 namespace {
@@ -75,13 +77,13 @@ void CheckAgainstTruth(const fs::path& session, const TargetExtrinsicsResult& r,
   }
 }
 
-// The small session (320x240 depth and colour, 160x120 thermal, 6 stills, 3x4 holes),
-// starting from the nominal extrinsics (1°, 10 mm off). What limits it is the depth
-// camera's systematic error (the fixtures' Kinect-style disparity distortion, ~1 mm at
-// 1 m, common to both cameras' estimates), over only 6 plates: the reported 1σ per axis
-// are 0.2–0.45° and 1.2–3.7 mm, measured errors 0.06–0.53° and 1.7–3.1 mm. Bounds: 0.8°
-// and 6 mm (~2x the worst seen, under the nominal rig's error), and the truth within the
-// reported uncertainty, which is the real check.
+// The small session (320x240 depth and colour, 160x120 thermal, 6 stills, 3x4 holes, a 3 mm
+// plate), starting from the nominal extrinsics (1°, 10 mm off), without a depth correction.
+// What limits it is the depth camera's systematic error (the fixtures' Kinect-style
+// disparity distortion, ~1 mm at 1 m, common to both cameras' estimates), over only 6
+// plates: the reported 1σ per axis are 0.1–0.5° and 1.2–3.7 mm, measured errors 0.06–0.53°
+// and 1.0–3.5 mm. Bounds: 0.8° and 6 mm (~2x the worst seen, under the nominal rig's
+// error), and the truth within the reported uncertainty, which is the real check.
 TEST(TargetExtrinsics, SmallSessionsMatchTruthWithinTheirUncertainty) {
   for (uint64_t seed : {1, 2, 3}) {
     const fs::path session = Session(true, seed);
@@ -92,9 +94,10 @@ TEST(TargetExtrinsics, SmallSessionsMatchTruthWithinTheirUncertainty) {
 }
 
 // The issue's targets, on the full-size sessions (20 stills, 640x480 depth and colour,
-// 320x240 thermal). Renders ~2 min per seed: run by hand. Measured (seeds 1-3): rotation
-// 0.10-0.19°, translation 1.7-2.9 mm, within 3.7σ: the issue's 0.1° / 2 mm are NOT met with
-// the fixtures' depth distortion (see SmallSessions...); this test records the goal.
+// 320x240 thermal) WITHOUT a depth correction. Renders ~1 min per seed: run by hand.
+// Measured (seeds 1-5): rotation 0.08-0.16°, translation 0.6-1.9 mm, within 3.3σ: the 0.1°
+// is not met without the bench's depth part; with the correction calibrated from a
+// depth-wall session (SessionsFromEnvironment with EXT_DEPTH_RIG, README) it is.
 TEST(TargetExtrinsics, DISABLED_FullSessionsMeetTheIssueTargets) {
   for (uint64_t seed : {1, 2, 3}) {
     const fs::path session = Session(false, seed);
@@ -116,6 +119,38 @@ TEST(TargetExtrinsics, TooFewStillsIsAnInputErrorNamingTheScan) {
   } catch (const core::InputError& e) {
     EXPECT_NE(std::string(e.what()).find(session.string()), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("too few stills"), std::string::npos) << e.what();
+  }
+}
+
+// Every still the same pose (each stream's index lists its first frame at every
+// timestamp): the plate's plane fixes 3 of each extrinsic's 6 dof and nothing the other 3
+// (the translation in the plate's plane, the turn about its normal trade with the stills'
+// poses). A clear InputError, never a made-up number with a made-up σ.
+TEST(TargetExtrinsics, OnePoseRepeatedIsRefusedAsDegenerate) {
+  const fs::path session = Session(true, 1);
+  const fs::path copy = hw::test::TestFolder("one-pose");
+  fs::copy(session, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  for (const char* stream : {"depth", "rgb", "thermal"}) {
+    const fs::path index = copy / (std::string(stream) + ".txt");
+    const std::vector<core::IndexEntry> entries = core::ReadStreamIndex(index);
+    ASSERT_GE(entries.size(), 3u);
+    std::string text;
+    for (const core::IndexEntry& e : entries) {
+      char stamp[64];
+      std::snprintf(stamp, sizeof(stamp), "%.6f", e.timestamp_s);
+      text += std::string(stamp) + " " + entries[0].path + "\n";
+    }
+    core::WriteFileAtomically(index, text);
+  }
+  core::ScanOptions scan_options;
+  scan_options.rig_path = BenchRig(session, "one-pose");
+  const core::Scan scan = core::Scan::Open(copy, scan_options);
+  try {
+    const TargetExtrinsicsResult r = EstimateTargetExtrinsics(scan, core::ReadTarget(copy / "target.yaml"), {});
+    FAIL() << "no error; thermal sigma " << r.thermal.TranslationSigmaMm().transpose() << " mm";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("degenerate"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(copy.string()), std::string::npos) << e.what();
   }
 }
 
@@ -177,12 +212,38 @@ TEST(TargetExtrinsicsMeasure, DISABLED_SessionsFromEnvironment) {
     o.depth_model = std::getenv("EXT_NODM") == nullptr;
     o.edge_shift = std::getenv("EXT_NOES") == nullptr;
     o.still_errors = std::getenv("EXT_NOSE") == nullptr;
+    o.depth_affine = std::getenv("EXT_NOAFF") == nullptr;
     const TargetExtrinsicsResult r = EstimateTargetExtrinsics(scan, core::ReadTarget(session / "target.yaml"), o);
     if (std::getenv("EXT_STILLS")) for (const TargetExtrinsicsStill& st : r.stills) std::printf("still d%d t%d r%d: %d %d %d %s\n", st.depth_frame, st.thermal_frame, st.rgb_frame, st.thermal_corners, st.rgb_corners, st.plane_points, st.reason.c_str());
     for (const auto& [e, t] : {std::pair{&r.thermal, truth.depth_from_thermal}, std::pair{&r.rgb, truth.depth_from_rgb}}) {
       const ExtrinsicsSigmas s = ErrorInSigmas(*e, t);
+      const Eigen::Vector3d dt = 1e3 * (e->depth_from_camera.translation - t.translation);
+      std::printf("dt %+.2f %+.2f %+.2f mm\n", dt.x(), dt.y(), dt.z());
       std::printf("%s %s rot %.3f deg (%.2f sig, sig %.3f) trans %.2f mm (%.2f sig, sig %.2f %.2f %.2f) plane %.2f cell %.2f mm still %.2f mm %.3f deg es %.2f %.2f mm dm %.4f det %.1f s solve %.2f s\n", session.c_str(), e->camera.c_str(), RotationErrorDeg(e->depth_from_camera, t), s.rotation, e->RotationSigmaDeg().norm(), TranslationErrorMm(e->depth_from_camera, t), s.translation, e->TranslationSigmaMm().x(), e->TranslationSigmaMm().y(), e->TranslationSigmaMm().z(), 1e3*r.sigma_plane_m, 1e3*r.sigma_cell_m, 1e3*r.sigma_still_offset_m, r.sigma_still_tilt_rad*57.3, 1e3*r.thermal_edge_shift_m, 1e3*r.rgb_edge_shift_m, r.depth_model.y(), r.detect_seconds, r.solve_seconds);
     }
   }
 }
+}  // namespace hw::calibrate
+namespace hw::calibrate {
+namespace {
+// Renders the full-size seed-1 session with parts of the depth sensor or the mask made
+// ideal, to find what limits the solve: EXT_RENDER_OUT=DIR EXT_VARIANT=ideal|nodist|
+// noquant|nofat|nocorr|thin|sharp (several may be combined), then SessionsFromEnvironment
+// on DIR. (An ideal depth sensor still left 1.5 mm along the view axis: the plate's
+// thickness, now modelled.)
+TEST(TargetExtrinsicsMeasure, DISABLED_RenderVariant) {
+  const char* out = std::getenv("EXT_RENDER_OUT");
+  if (!out) GTEST_SKIP();
+  const std::string v = std::getenv("EXT_VARIANT") ? std::getenv("EXT_VARIANT") : "";
+  CalibrationSessionOptions options = CalibrationSessionOptions::Preset(CalibrationSessionKind::kTargetExtrinsics, false, 1, 1);
+  if (v.find("ideal") != std::string::npos) options.common().depth.noise = false;
+  if (v.find("nodist") != std::string::npos) { options.common().depth.distortion_radial_px = 0; options.common().depth.distortion_pattern_px = 0; }
+  if (v.find("noquant") != std::string::npos) options.common().depth.disparity_step_px = 0;
+  if (v.find("nofat") != std::string::npos) options.common().depth.fattening_px = 0;
+  if (v.find("nocorr") != std::string::npos) options.common().depth.noise_correlation_px = 0;
+  if (v.find("thin") != std::string::npos) options.target_extrinsics.mask.thickness_m = 0;
+  if (v.find("sharp") != std::string::npos) { options.common().thermal_defocus.aperture_m = 0; options.common().colour_defocus.aperture_m = 0; }
+  fixtures::SynthesizeCalibrationSession(options, out);
+}
+}  // namespace
 }  // namespace hw::calibrate

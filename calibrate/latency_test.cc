@@ -243,6 +243,30 @@ TEST(LatencySession, IrregularMotionWithDroppedFramesAndMissingFiles) {
   EXPECT_EQ(r.depth_track.missing, 4);
 }
 
+// The second rate: a low-cost 9 Hz thermal core (Lepton-class: 9 Hz export limit,
+// bolometer τ ≈ 12 ms) against 30 Hz depth and colour. A thermal frame then spans 111 ms,
+// 3.7 depth frames: the offset must still come to a fraction of a millisecond, not of a
+// frame. Its own bound is the 2 ms (and 3σ): with 3× fewer thermal samples over the
+// 3 s, the thermal σ is larger than at 27 Hz.
+TEST(LatencySession, ANineHertzThermalCameraIsTimedToWithinTwoMilliseconds) {
+  CalibrationSessionOptions options = Session(4, 0.020, -0.063, 3.0, fixtures::LatencyMotion::kSine, 0.012);
+  options.latency.thermal_rate_hz = 9;
+  const fs::path folder = Render("latency-160px-a30-v2-sine-9hz", options);
+  const LatencyResult r = EstimateLatency(core::Scan::Open(folder), LatencyOptions());
+  const core::Rig truth = core::ReadRig(folder / "truth" / "rig.yaml");
+  const double rgb_error = r.rgb.offset_s - truth.rgb_time_offset_s;
+  const double thermal_error = r.thermal.offset_s - truth.thermal_time_offset_s;
+  std::printf("9 Hz thermal: %d frames; rgb error %+.3f ms (sigma %.3f), thermal error %+.3f ms (sigma %.3f), "
+              "closure %+.3f ms\n",
+              r.thermal_track.frames, 1e3 * rgb_error, 1e3 * r.rgb.sigma_s, 1e3 * thermal_error, 1e3 * r.thermal.sigma_s,
+              1e3 * r.closure_s);
+  EXPECT_LT(std::abs(thermal_error), 2e-3);
+  EXPECT_LT(std::abs(thermal_error), 3 * r.thermal.sigma_s);
+  EXPECT_LT(std::abs(rgb_error), 1.5e-3);
+  EXPECT_LT(std::abs(rgb_error), 3 * r.rgb.sigma_s);
+  EXPECT_GT(r.thermal.peak_correlation, 0.99);
+}
+
 TEST(LatencySession, ErrorsNameTheProblem) {
   const fs::path session = Render("latency-160px-a30-v2-sine-seed1", Session(1, 0.012, -0.040, 1.5));
   auto expect_error = [](const fs::path& folder, const std::string& needle) {

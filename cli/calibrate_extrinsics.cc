@@ -128,9 +128,15 @@ std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const Extrinsi
                            .Number("sigma_still_tilt_rad", target->sigma_still_tilt_rad)
                            .Number("thermal_edge_shift_m", target->thermal_edge_shift_m)
                            .Number("rgb_edge_shift_m", target->rgb_edge_shift_m)
+                           .Number("target_thickness_m", target->target_thickness_m)
                            .Int("plane_points", target->plane_points)
                            .Number("plane_rms_m", target->plane_rms_m)
                            .Number("depth_model_bowl_per_m", target->depth_model.y())
+                           .Add("depth_model_affine_per_m",
+                                core::JsonArray({core::JsonNumber(target->depth_model[0]),
+                                                 core::JsonNumber(target->depth_model[2]),
+                                                 core::JsonNumber(target->depth_model[3])}))
+                           .Number("depth_affine_prior_sigma_per_m", target->depth_affine_sigma_per_m)
                            .Number("detect_s", target->detect_seconds)
                            .Number("solve_s", target->solve_seconds)
                            .Add("stills", core::JsonArray(stills, "    "))
@@ -172,6 +178,8 @@ std::string ExtrinsicsJsonFile(const ExtrinsicsCommandOptions& o, const Extrinsi
                            .Number("max_translation_sigma_mm", o.max_translation_sigma_mm)
                            .Int("min_stills", o.target.min_stills)
                            .Bool("depth_model", o.target.depth_model)
+                           .Bool("depth_affine", o.target.depth_affine)
+                           .Number("depth_affine_sigma_per_m", o.target.depth_affine_sigma_per_m)
                            .Number("huber_sigmas", o.target.huber_sigmas)
                            .Int("reweight_iterations", o.target.reweight_iterations)
                            .str());
@@ -227,10 +235,10 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
     r.estimates = {t.thermal, t.rgb};
     r.detect_seconds = t.detect_seconds;
     r.notes.push_back(StringPrintf("Stills     %d of %zu used; corners sigma thermal %.3f px, rgb %.3f px; plate %d points, "
-                                   "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m",
+                                   "sigma %.2f mm white, %.2f mm per %.0f mm cell; depth bowl %+.4f /m, affine %+.4f %+.4f %+.4f /m",
                                    t.stills_used, t.stills.size(), t.sigma_thermal_px, t.sigma_rgb_px, t.plane_points,
                                    1e3 * t.sigma_plane_m, 1e3 * t.sigma_cell_m, 1e3 * o.target.plane_cell_m,
-                                   t.depth_model.y()));
+                                   t.depth_model[1], t.depth_model[0], t.depth_model[2], t.depth_model[3]));
     r.rig_out.depth_from_rgb = t.rgb.depth_from_camera;
     const int stills = static_cast<int>(t.stills.size());
     images = {{"thermal_residuals.png", ResidualScatter(*r.rig_in.thermal, t.thermal_residuals, stills)},

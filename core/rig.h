@@ -111,11 +111,12 @@ enum class TargetType { kSquareGrid, kChessboard, kAprilGrid };
 std::string TargetTypeName(TargetType type);  // "square_grid" | "chessboard" | "aprilgrid"
 
 // Ranges (Target::Check): rows, cols in [1, 1000] (chessboard: [2, 1000] inner corners);
-// square_m in [1e-4, 10] m; pitch_m in (square_m, 10] m. A printed target's squares are
+// square_m in [1e-4, 10] m; pitch_m in (square_m, 10] m; thickness_m in [0, 0.05] m. A printed target's squares are
 // millimetres to decimetres; 0.1 mm still covers microscope targets, 10 m a building wall.
 struct Target {
   static constexpr int kMaxRowsCols = 1000;
   static constexpr double kMinSizeM = 1e-4, kMaxSizeM = 10;
+  static constexpr double kMaxThicknessM = 0.05;
 
   TargetType type = TargetType::kChessboard;
   int rows = 0;           // square_grid: squares per column; chessboard: inner corners per column
@@ -123,6 +124,11 @@ struct Target {
   double square_m = 0;    // side of one square (aprilgrid: of one tag), metres
   double pitch_m = 0;     // square_grid, aprilgrid: centre-to-centre distance, metres, > square_m
   std::string family;     // aprilgrid only: e.g. "tag36h11"
+  // square_grid only (heatwave extension of target.yaml, optional, default 0): thickness
+  // of the plate the holes are cut through, metres, [0, 0.05]; the corners are those of
+  // the front face. At a tilt a camera sees a hole's far walls, so its visible outline is
+  // smaller than the front opening (calibrate/hole_corner.h); 0 = a thin plate.
+  double thickness_m = 0;
 
   std::string Check() const;
 };

@@ -75,6 +75,14 @@ std::string Target::Check() const {
   } else if (pitch_m != 0) {
     return "pitch_m: not used" + for_type + ", must be absent (0), got " + MessageNumber(pitch_m);
   }
+  if (type == TargetType::kSquareGrid) {
+    if (!(thickness_m >= 0 && thickness_m <= kMaxThicknessM)) {
+      return "thickness_m: must be in [0, " + MessageNumber(kMaxThicknessM) + "] m, got " + MessageNumber(thickness_m);
+    }
+  } else if (thickness_m != 0) {
+    return "thickness_m: only for square_grid (a plate with holes), must be absent (0)" + for_type + ", got " +
+           MessageNumber(thickness_m);
+  }
   if (type == TargetType::kAprilGrid) {
     if (kAprilTagFamilies.count(family) == 0) {
       std::string known;
@@ -91,7 +99,7 @@ Target ParseTarget(const std::string& yaml_text, const fs::path& path_for_errors
   const YamlReader reader(path_for_errors);
   const YAML::Node root = reader.LoadMapping(yaml_text);
   const Fields fields =
-      reader.Mapping(root, "", {"type", "rows", "cols", "square_m", "pitch_m", "family"});
+      reader.Mapping(root, "", {"type", "rows", "cols", "square_m", "pitch_m", "family", "thickness_m"});
   Target target;
   const YAML::Node& type_node = fields.Required("type");
   const std::optional<TargetType> type = ParseTargetType(reader.String(type_node, "type"));
@@ -108,6 +116,13 @@ Target ParseTarget(const std::string& yaml_text, const fs::path& path_for_errors
   } else if (fields.Has("pitch_m")) {
     reader.Fail("pitch_m", "not used for " + TargetTypeName(target.type) + ", remove it",
                 fields.NodeFor("pitch_m"));
+  }
+  if (fields.Has("thickness_m")) {
+    if (target.type != TargetType::kSquareGrid) {
+      reader.Fail("thickness_m", "only for square_grid, not " + TargetTypeName(target.type),
+                  fields.NodeFor("thickness_m"));
+    }
+    target.thickness_m = reader.Number(fields.NodeFor("thickness_m"), "thickness_m");
   }
   if (target.type == TargetType::kAprilGrid) {
     target.family = reader.String(fields.Required("family"), "family");
@@ -138,6 +153,9 @@ void WriteTarget(const fs::path& path, const Target& target) {
         "pitch_m: " + FormatYamlDouble(target.pitch_m) + "   # centre-to-centre distance, metres\n";
   }
   if (target.type == TargetType::kAprilGrid) out += "family: " + target.family + "\n";
+  if (target.thickness_m > 0) {
+    out += "thickness_m: " + FormatYamlDouble(target.thickness_m) + "   # plate thickness, metres (heatwave)\n";
+  }
   WriteFileAtomically(path, out);
 }
 

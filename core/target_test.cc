@@ -41,6 +41,7 @@ void ExpectSameTarget(const Target& a, const Target& b) {
   EXPECT_EQ(a.square_m, b.square_m);
   EXPECT_EQ(a.pitch_m, b.pitch_m);
   EXPECT_EQ(a.family, b.family);
+  EXPECT_EQ(a.thickness_m, b.thickness_m);
 }
 
 TEST(TargetTest, TypeNames) {
@@ -68,12 +69,13 @@ pitch_m: 0.050       # square_grid and aprilgrid: centre-to-centre distance
 TEST(TargetTest, RoundTripsEveryType) {
   const fs::path dir = hw::test::TestFolder();
   Target square_grid{TargetType::kSquareGrid, 4, 6, 0.03, 0.05, ""};
+  Target thick_grid{TargetType::kSquareGrid, 4, 6, 0.03, 0.05, "", 0.003};
   Target chessboard{TargetType::kChessboard, 6, 9, 0.1 / 3.0, 0, ""};
   Target aprilgrid{TargetType::kAprilGrid, 1, 1, 0.088, 0.088 * 1.3, "tagStandard41h12"};
-  for (const Target& target : {square_grid, chessboard, aprilgrid}) {
+  for (const Target& target : {square_grid, thick_grid, chessboard, aprilgrid}) {
     SCOPED_TRACE(TargetTypeName(target.type));
     ASSERT_EQ(target.Check(), "");
-    const fs::path path = dir / (TargetTypeName(target.type) + ".yaml");
+    const fs::path path = dir / (TargetTypeName(target.type) + std::to_string(target.thickness_m) + ".yaml");
     WriteTarget(path, target);
     ExpectSameTarget(target, ReadTarget(path));
   }
@@ -88,6 +90,9 @@ TEST(TargetTest, MalformedTargetsThrowInputError) {
   EXPECT_EQ(TargetError(chess), "<no error>");
   EXPECT_EQ(TargetError(april), "<no error>");
   EXPECT_EQ(TargetError(Replace(grid, "rows: 4", "rows: 1")), "<no error>");
+  EXPECT_EQ(TargetError(grid + "thickness_m: 0.003\n"), "<no error>");
+  EXPECT_EQ(ParseTarget(grid + "thickness_m: 0.003\n", "target.yaml").thickness_m, 0.003);
+  EXPECT_EQ(ParseTarget(grid, "target.yaml").thickness_m, 0.0);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {Replace(grid, "pitch_m: 0.05", "pitch_m: 0.03"),
        "target.yaml: pitch_m: must be > square_m (0.03) and <= 10 m for square_grid, got 0.03 "
@@ -99,6 +104,9 @@ TEST(TargetTest, MalformedTargetsThrowInputError) {
       {Replace(april, "tag36h11", "tag99h1"), "family: unknown AprilTag family 'tag99h1'"},
       {Replace(april, "tag36h11", "[tag36h11]"), "family: must be a name, got a list"},
       {grid + "family: tag36h11\n", "family: only for aprilgrid, not square_grid"},
+      {chess + "thickness_m: 0.003\n", "thickness_m: only for square_grid, not chessboard"},
+      {grid + "thickness_m: -0.001\n", "thickness_m: must be in [0, 0.05] m, got -0.001 (line 6)"},
+      {grid + "thickness_m: 0.06\n", "thickness_m: must be in [0, 0.05] m, got 0.06 (line 6)"},
       {Replace(chess, "rows: 6", "rows: 1"), "rows: must be in [2, 1000] for chessboard, got 1"},
       {Replace(chess, "cols: 9", "cols: 1"), "cols: must be in [2, 1000] for chessboard, got 1"},
       {Replace(grid, "rows: 4", "rows: 0"), "rows: must be in [1, 1000] for square_grid, got 0"},
