@@ -52,9 +52,6 @@ std::string TargetExtrinsicsOptions::Check() const {
         (depth_affine_sigma_per_m >= kMinDepthAffineSigmaPerM && depth_affine_sigma_per_m <= 0.1))) {
     return OptionFail("depth_affine_sigma_per_m", depth_affine_sigma_per_m, "0 (automatic) or in [1e-5, 0.1] /m");
   }
-  if (!(min_reciprocal_condition > 0 && min_reciprocal_condition <= 1e-3)) {
-    return OptionFail("min_reciprocal_condition", min_reciprocal_condition, "in (0, 1e-3]");
-  }
   return "";
 }
 
@@ -728,8 +725,9 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   // Covariance of the two extrinsics, the still poses marginalised (the last problem's
   // residuals are whitened by the σ it was built with).
   ceres::Covariance::Options cov_options;
-  cov_options.algorithm_type = ceres::DENSE_SVD;
-  cov_options.min_reciprocal_condition_number = o.min_reciprocal_condition;
+  // Sparse QR: the same numbers as a dense SVD here (full-size sessions: to every printed
+  // digit), the whole solve 1.4 s instead of 2.4; a rank-deficient Jacobian makes Compute fail.
+  cov_options.algorithm_type = ceres::SPARSE_QR;
   cov_options.num_threads = 2;
   ceres::Covariance covariance(cov_options);
   const std::vector<std::pair<const double*, const double*>> blocks = {{thermal_params, thermal_params},

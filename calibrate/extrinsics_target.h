@@ -29,8 +29,8 @@
 // plate points are re-selected with the refined poses after the first solve.
 //
 // Covariance: of each extrinsic's 6 parameters in calibrate/extrinsics.h's parameterisation
-// (ω rad left rotation in the depth frame; δt m), by ceres::Covariance (dense SVD, refused
-// below min_reciprocal_condition) on the whole problem: the still poses and every nuisance
+// (ω rad left rotation in the depth frame; δt m), by ceres::Covariance (sparse QR: a
+// rank-deficient Jacobian, stills that do not fix every dof, is refused) on the whole problem: the still poses and every nuisance
 // parameter are marginalised.
 //
 // Measured (fixtures' extrinsics-target sessions, true intrinsics, nominal extrinsics
@@ -123,9 +123,6 @@ struct TargetExtrinsicsOptions {
   double huber_sigmas = 2.5;
   // Solve, re-estimate each residual type's σ, solve again: this many re-estimations, [0, 20].
   int reweight_iterations = 3;
-  // The extrinsics' covariance is only trusted with well-conditioned normal equations:
-  // ceres::Covariance's minimum reciprocal condition number, (0, 1e-3].
-  double min_reciprocal_condition = 1e-14;
   std::string Check() const;
 };
 
