@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -45,8 +46,19 @@ TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_
   (thermal ? options.thermal_square_grid.views
            : kind == CalibrationSessionKind::kColourAprilGrid ? options.aprilgrid.views : options.chessboard.views)
       .num_views = num_views;
-  const std::string name = fixtures::CalibrationSessionName(kind) + (small ? "-small-" : "-full-") +
-                           std::to_string(seed) + "-" + std::to_string(num_views);
+  std::string name = fixtures::CalibrationSessionName(kind) + (small ? "-small-" : "-full-") +
+                     std::to_string(seed) + "-" + std::to_string(num_views);
+  if (const char* t = std::getenv("INTR_THICKNESS_M"); t && thermal) {
+    options.thermal_square_grid.mask.thickness_m = std::atof(t);
+    name += std::string("-t") + t;
+  }
+  if (const char* v = std::getenv("INTR_VARIANT"); v && thermal) {  // investigations: one effect removed
+    const std::string variant = v;
+    if (variant == "nobleed") options.thermal_square_grid.mask.bleed_fraction = 0;
+    if (variant == "sharp") options.thermal_square_grid.common.thermal_defocus.aperture_m = 0;
+    if (variant == "uniform") options.thermal_square_grid.mask.heating_gradient_k = 0, options.thermal_square_grid.mask.blotch_k = 0;
+    name += "-" + variant;
+  }
   const fs::path dir = fixtures::test::CachedSession(name, options, thermal ? "thermal.txt" : "rgb.txt");
   const core::Scan scan = core::Scan::Open(dir);
   const core::Target target = core::ReadTarget(dir / "target.yaml");
@@ -133,6 +145,15 @@ TEST(IntrinsicsTruthTest, DISABLED_FullSizeSessionsProjectLikeTheTruthWithinTheR
       ExpectWithinUncertainty(SolveAndCompare(kind, false, seed, 16, true), seed);
     }
   }
+}
+
+// One full-size thermal session of rig unit INTR_SEED (default 3), for investigations
+// (INTR_THICKNESS_M sets the mask's plate thickness, m; default the preset's 3 mm;
+// INTR_VARIANT=nobleed|sharp|uniform removes heat bleeding, defocus or uneven heating).
+TEST(IntrinsicsTruthTest, DISABLED_OneFullThermalSession) {
+  const uint64_t seed = std::getenv("INTR_SEED") ? std::strtoull(std::getenv("INTR_SEED"), nullptr, 10) : 3;
+  SolveAndCompare(CalibrationSessionKind::kThermalSquareGrid, false, seed, 16, false);
+  SolveAndCompare(CalibrationSessionKind::kThermalSquareGrid, false, seed, 16, true);
 }
 
 }  // namespace
