@@ -52,6 +52,15 @@ TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_
     options.thermal_square_grid.mask.thickness_m = std::atof(t);
     name += std::string("-t") + t;
   }
+  if (const char* v = std::getenv("INTR_VARIANT"); v && !thermal) {  // investigations: one effect removed
+    const std::string variant = v;
+    fixtures::SessionCommonOptions& common = options.common();
+    if (variant == "nopipe") common.colour_pipeline.bayer = false, common.colour_pipeline.jpeg_quality = 0;
+    if (variant == "sharp") common.colour_defocus.aperture_m = 0;
+    if (variant == "still") common.still_shake_deg_per_s = 0;
+    if (variant == "global") common.colour.readout_s = 0;
+    name += "-" + variant;
+  }
   if (const char* v = std::getenv("INTR_VARIANT"); v && thermal) {  // investigations: one effect removed
     const std::string variant = v;
     if (variant == "nobleed") options.thermal_square_grid.mask.bleed_fraction = 0;
@@ -154,6 +163,14 @@ TEST(IntrinsicsTruthTest, DISABLED_OneFullThermalSession) {
   const uint64_t seed = std::getenv("INTR_SEED") ? std::strtoull(std::getenv("INTR_SEED"), nullptr, 10) : 3;
   SolveAndCompare(CalibrationSessionKind::kThermalSquareGrid, false, seed, 16, false);
   SolveAndCompare(CalibrationSessionKind::kThermalSquareGrid, false, seed, 16, true);
+}
+
+// One full-size AprilGrid session of rig unit INTR_SEED (default 1), for investigations
+// (INTR_VARIANT=nopipe|sharp|still|global removes the Bayer + JPEG pipeline, the lens
+// defocus, the hand shake during a still or the rolling shutter).
+TEST(IntrinsicsTruthTest, DISABLED_OneFullAprilGridSession) {
+  const uint64_t seed = std::getenv("INTR_SEED") ? std::strtoull(std::getenv("INTR_SEED"), nullptr, 10) : 1;
+  SolveAndCompare(CalibrationSessionKind::kColourAprilGrid, false, seed, 16, true);
 }
 
 }  // namespace
