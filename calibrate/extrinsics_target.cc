@@ -513,20 +513,15 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   const PoseRef thermal_ref(rig.depth_from_thermal), rgb_ref(rig.depth_from_rgb);
   double thermal_params[6] = {0, 0, 0, 0, 0, 0}, rgb_params[6] = {0, 0, 0, 0, 0, 0};
   double depth_model[4] = {0, 0, 0, 0};  // [a, b, c_x, c_y], 1/m: PlaneResidual
-  // Prior σ of the affine part: given, or the RMS of the calibrated field over its nodes (a
-  // device's affine error, which no wall shows, taken as large as the rest of its field),
-  // or kDefaultDepthAffineSigmaPerM without a calibration.
+  // The affine part is estimated only with a calibrated field; its prior σ is given, or the
+  // field's RMS over its nodes (a device's affine error, which no wall shows, taken as large
+  // as the rest of its field).
   const bool estimate_affine = o.depth_affine && rig.depth_correction.has_value();
-  double affine_sigma = o.depth_affine_sigma_per_m;
-  if (affine_sigma == 0) {
-    affine_sigma = TargetExtrinsicsOptions::kDefaultDepthAffineSigmaPerM;
-    if (rig.depth_correction && !rig.depth_correction->offset_per_m.empty()) {
-      double sum = 0;
-      for (double v : rig.depth_correction->offset_per_m) sum += v * v;
-      affine_sigma = std::max(std::sqrt(sum / static_cast<double>(rig.depth_correction->offset_per_m.size())),
-                              TargetExtrinsicsOptions::kMinDepthAffineSigmaPerM);
-    }
-  }
+  const double affine_sigma =
+      !estimate_affine                   ? 0
+      : o.depth_affine_sigma_per_m > 0 ? o.depth_affine_sigma_per_m
+                                       : std::max(rig.depth_correction->RmsPerM(),
+                                                  TargetExtrinsicsOptions::kMinDepthAffineSigmaPerM);
   double thermal_shift[1] = {0}, rgb_shift[1] = {0};
   double common_offset[1] = {0};
   // Direction of each corner from its hole's centre (TL, TR, BR, BL: core::TargetCorners).
@@ -555,11 +550,9 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     }
     problem = std::make_unique<ceres::Problem>();
     problem->AddParameterBlock(depth_model, 4);
-    // The offset a stays 0 (depth's scale against the corners' is weakly determined, and a
-    // free offset lets the first solve wander); the bowl b is freed once the poses are good.
-    // Which of [a, b, c_x, c_y] are free: none in the first round (the poses are rough);
-    // then the bowl b with depth_model, the affine part (a, c_x, c_y) with depth_affine and
-    // a calibrated depth_correction, under its prior.
+    // Which of [a, b, c_x, c_y] are free: none in the first round (the poses are rough, and
+    // a free depth scale lets that solve wander); then the bowl b with depth_model, and the
+    // affine part (a, c_x, c_y) under its prior when estimate_affine.
     std::vector<int> fixed;
     if (!(o.depth_model && round > 0)) fixed.push_back(1);
     if (!(estimate_affine && round > 0)) fixed.insert(fixed.end(), {0, 2, 3});
@@ -633,27 +626,20 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     double within_dof = 0, cell_excess = 0;
     int cells = 0, cell_dof_lost = 0;
     std::vector<std::pair<double, int>> cell_means;
-    const core::Rigid3d depth_from_thermal = thermal_ref.Apply(thermal_params);
-    const core::Rigid3d depth_from_rgb = rgb_ref.Apply(rgb_params);
     for (size_t k = 0; k < data.size(); ++k) {
       if (!result.stills[k].used) continue;
       const StillData& d = data[k];
       const core::Rigid3d depth_from_target = still_refs[k].Apply(d.params);
-      for (const auto& [obs, camera, extrinsic, values, samples, shift] :
-           {std::tuple{&d.thermal, &*rig.thermal, &depth_from_thermal, &thermal_values, &result.thermal_residuals,
-                       thermal_shift[0]},
-            std::tuple{&d.rgb, &*rig.rgb, &depth_from_rgb, &rgb_values, &result.rgb_residuals, rgb_shift[0]}}) {
-        const core::Rigid3d camera_from_target = extrinsic->Inverse() * depth_from_target;
-        const Eigen::Vector3d camera_in_target = camera_from_target.Inverse().translation;
+      for (const auto& [obs, camera, ref, params, values, samples, shift] :
+           {std::tuple{&d.thermal, &*rig.thermal, &thermal_ref, thermal_params, &thermal_values,
+                       &result.thermal_residuals, thermal_shift},
+            std::tuple{&d.rgb, &*rig.rgb, &rgb_ref, rgb_params, &rgb_values, &result.rgb_residuals, rgb_shift}}) {
         for (size_t i = 0; i < obs->ids.size(); ++i) {
-          Eigen::Vector3d corner = corners[obs->ids[i]] + shift * outward(obs->ids[i]);
-          if (target.thickness_m > 0 && camera_in_target.z() < 0) {
-            const double shifted[2] = {corner.x(), corner.y()}, out[2] = {outward(obs->ids[i]).x(), outward(obs->ids[i]).y()};
-            double visible[2];
-            VisibleHoleCorner(shifted, out, target.thickness_m, camera_in_target.data(), visible);
-            corner = Eigen::Vector3d(visible[0], visible[1], 0);
-          }
-          const Eigen::Vector2d r = camera->Project(camera_from_target * corner) - obs->pixels[i];
+          // The solver's own residual at σ = 1 px: projected − observed, px.
+          const CornerResidual corner(*camera, corners[obs->ids[i]], outward(obs->ids[i]), target.thickness_m,
+                                      obs->pixels[i], still_refs[k], *ref, 1.0);
+          Eigen::Vector2d r;
+          if (!corner(params, d.params, shift, r.data())) continue;  // the camera behind the plate
           values->push_back(r.x());
           values->push_back(r.y());
           samples->push_back({static_cast<int>(k), obs->pixels[i], r});
@@ -717,7 +703,7 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   result.sigma_still_offset_m = sigma_still_offset;
   result.sigma_still_tilt_rad = sigma_still_tilt;
   result.depth_model = Eigen::Vector4d(depth_model[0], depth_model[1], depth_model[2], depth_model[3]);
-  result.depth_affine_sigma_per_m = estimate_affine ? affine_sigma : 0;
+  result.depth_affine_sigma_per_m = affine_sigma;
   result.target_thickness_m = target.thickness_m;
   result.thermal_edge_shift_m = thermal_shift[0];
   result.rgb_edge_shift_m = rgb_shift[0];

@@ -102,9 +102,8 @@ struct TargetExtrinsicsOptions {
   // 0.06–0.22° vs 0.08–0.14°, full sessions): not estimated then.
   bool depth_affine = true;
   // Prior σ of a, c_x and c_y, 1/m: 0 (automatic) takes the RMS of the rig's calibrated
-  // depth_correction over its nodes — a device's unseen affine error as large as its seen
-  // field — or kDefaultDepthAffineSigmaPerM without one; else in [1e-5, 0.1].
-  static constexpr double kDefaultDepthAffineSigmaPerM = 0.003;  // 0.13 px of disparity at f·b = 43 px·m
+  // depth_correction over its nodes (at least 1e-5) — a device's unseen affine error as
+  // large as its seen field; else in [1e-5, 0.1].
   static constexpr double kMinDepthAffineSigmaPerM = 1e-5;
   double depth_affine_sigma_per_m = 0;
   // Estimate each camera's apparent edge shift of the holes with the extrinsics: corners

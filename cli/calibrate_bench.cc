@@ -216,9 +216,7 @@ std::vector<RigItem> RigItems() {
   // Calibrated by the "depth" part: the size of the field, as depth error at 3 m (z²·δ).
   items.push_back({"depth field RMS at 3 m", "mm", "depth", [=](const core::Rig& r) {
                      if (!r.depth_correction || r.depth_correction->offset_per_m.empty()) return nan;
-                     double sum = 0;
-                     for (const double v : r.depth_correction->offset_per_m) sum += v * v;
-                     return 1e3 * 9 * std::sqrt(sum / r.depth_correction->offset_per_m.size());
+                     return 1e3 * 9 * r.depth_correction->RmsPerM();
                    }, false});
   items.push_back({"rgb time offset", "ms", "latency", [](const core::Rig& r) { return 1e3 * r.rgb_time_offset_s; }});
   items.push_back({"thermal time offset", "ms", "latency", [](const core::Rig& r) { return 1e3 * r.thermal_time_offset_s; }});

@@ -62,6 +62,13 @@ DepthCorrection::Stencil DepthCorrection::StencilAt(double x, double y) const {
           {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}};
 }
 
+double DepthCorrection::RmsPerM() const {
+  if (offset_per_m.empty()) return 0;
+  double sum = 0;
+  for (const double v : offset_per_m) sum += v * v;
+  return std::sqrt(sum / static_cast<double>(offset_per_m.size()));
+}
+
 double DepthCorrection::OffsetAt(double x, double y) const {
   assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
   const Stencil st = StencilAt(x, y);

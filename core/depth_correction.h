@@ -47,6 +47,8 @@ struct DepthCorrection {
   // δ at normalised coordinates (x, y), 1/m: bilinear between the four nodes around it,
   // the border node's value beyond the grid.
   double OffsetAt(double x, double y) const;
+  // RMS of offset_per_m over the nodes, 1/m (0 for none): the field's size.
+  double RmsPerM() const;
   // The corrected depth z / (1 − z·δ(x, y)), m; 0 for z <= 0 (no measurement) and for a
   // correction that would send the point to or beyond infinity (1 − z·δ <= 0.05).
   double Correct(double z_m, double x, double y) const;
