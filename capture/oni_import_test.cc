@@ -14,15 +14,24 @@ namespace {
 
 namespace t = testing;
 
-// Recorded once per test binary run: 1 s of the test device through OpenNI2's Recorder.
+// Recorded once per test binary run: 1 s of the test device through OpenNI2's Recorder
+// (66 MB), removed when the process exits (ctest runs every test in its own process: left
+// behind, the recordings filled /tmp at 66 MB a test).
 const std::filesystem::path& Recording() {
-  static const std::filesystem::path path = [] {
-    const std::filesystem::path p = std::filesystem::path(::testing::TempDir()) /
-                                    ("heatwave-oni-import-" + std::to_string(::getpid()) + ".oni");
-    t::RecordDevice(t::kTestDeviceUri, p, 1.0);
-    return p;
-  }();
-  return path;
+  struct Recorded {
+    std::filesystem::path path;
+    Recorded()
+        : path(std::filesystem::path(::testing::TempDir()) /
+               ("heatwave-oni-import-" + std::to_string(::getpid()) + ".oni")) {
+      t::RecordDevice(t::kTestDeviceUri, path, 1.0);
+    }
+    ~Recorded() {
+      std::error_code ec;
+      std::filesystem::remove(path, ec);
+    }
+  };
+  static const Recorded recorded;
+  return recorded.path;
 }
 
 // Every recorded frame lands in the scan with the device's exact depth (mm, depth_scale
