@@ -4,6 +4,7 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <optional>
@@ -737,6 +738,18 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   };
   fill(result.thermal, "thermal", thermal_ref, thermal_params, result.thermal_residuals);
   fill(result.rgb, "rgb", rgb_ref, rgb_params, result.rgb_residuals);
+  // A σ of centimetres or degrees is no calibration: the stills leave a direction free and
+  // the factorisation only did not notice (a legitimate one is millimetres, 0.1°).
+  for (const ExtrinsicsEstimate* e : {&result.thermal, &result.rgb}) {
+    const double sigma_mm = e->TranslationSigmaMm().maxCoeff(), sigma_deg = e->RotationSigmaDeg().maxCoeff();
+    if (!(sigma_mm <= 50 && sigma_deg <= 5)) {
+      char what[160];
+      std::snprintf(what, sizeof(what), "%s 1-sigma %.0f mm, %.1f deg", e->camera.c_str(), sigma_mm, sigma_deg);
+      throw core::InputError(where, "the target-based extrinsics are not determined by these stills (degenerate "
+                                    "configuration: " + std::string(what) +
+                                    "; vary the target's orientation and position)");
+    }
+  }
   double sum = 0;
   for (const ResidualSample& s : result.plane_residuals) sum += s.residual.x() * s.residual.x();
   result.plane_points = static_cast<int>(result.plane_residuals.size());

@@ -76,8 +76,10 @@ TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_
   const core::CameraModel& truth = thermal ? *truth_rig.thermal : *truth_rig.rgb;
   std::vector<ViewObservation> views;
   std::vector<core::Rigid3d> true_camera_from_target;
+  SquareGridOptions grid_options;  // INTR_EDGE_SIGMA_PX: investigations of the edge scale
+  if (const char* e = std::getenv("INTR_EDGE_SIGMA_PX")) grid_options.edge_sigma_px = std::atof(e);
   for (int i = 0; i < scan.NumFrames(stream); ++i) {
-    const Detection d = thermal ? DetectSquareGrid(scan.LoadThermal(i), target)
+    const Detection d = thermal ? DetectSquareGrid(scan.LoadThermal(i), target, grid_options)
                         : target.type == core::TargetType::kAprilGrid ? DetectAprilGrid(scan.LoadRgb(i), target)
                                                                       : DetectChessboard(scan.LoadRgb(i), target);
     if (!d.accepted) continue;

@@ -151,11 +151,27 @@ void FitContourLines(Hole& h) {
   h.corners = out;
 }
 
-// Sub-pixel sides: along each side, intensity profiles across it; the point where a
-// profile crosses the mid-level of its two ends is an edge point; a line through a side's
-// edge points, intersected with its neighbours' lines. Keeps the corners on failure.
-bool RefineWithProfiles(const cv::Mat& f, Hole& h) {
+// Sub-pixel sides: along each side, intensity profiles across it (from the hole into the
+// plate, sampled every 0.1 px); an edge point per profile (SquareGridOptions::edge): where
+// the profile's derivative, smoothed by a Gaussian of `edge_sigma_px`, peaks (sub-sample by
+// a parabola through the peak; of the peaks of at least half the strongest one's slope, the
+// one nearest the current side), or where it crosses the mid-level of its two ends (the
+// crossing nearest the current side). A line through a side's edge points (Huber),
+// intersected with its neighbours' lines. Keeps the corners and returns false on failure.
+bool RefineWithProfiles(const cv::Mat& f, const SquareGridOptions& options, Hole& h) {
+  const double edge_sigma_px = options.edge_sigma_px;
+  constexpr double kStep = 0.1;  // profile sampling, pixels
+  // d/ds of the Gaussian-smoothed profile = the profile's central differences smoothed.
+  const int r = static_cast<int>(std::ceil(3 * edge_sigma_px / kStep));
+  std::vector<double> kernel(2 * r + 1);
+  double kernel_sum = 0;
+  for (int j = -r; j <= r; ++j) {
+    kernel[j + r] = std::exp(-0.5 * std::pow(j * kStep / edge_sigma_px, 2));
+    kernel_sum += kernel[j + r];
+  }
+  for (double& w : kernel) w /= kernel_sum * 2 * kStep;
   std::array<cv::Point2d, 4> point, dir;
+  std::vector<double> profile, slope;
   for (int k = 0; k < 4; ++k) {
     const cv::Point2d a = h.corners[k], b = h.corners[(k + 1) % 4];
     const double len = cv::norm(b - a);
@@ -164,34 +180,60 @@ bool RefineWithProfiles(const cv::Mat& f, Hole& h) {
     cv::Point2d n(d.y, -d.x);
     if (n.dot(0.5 * (a + b) - h.centre) < 0) n = -n;
     const double half = std::clamp(0.3 * len, 2.0, 5.0);
+    const int m = static_cast<int>(half / kStep);
+    const int pad = r + 1;  // samples beyond the window so the smoothing sees no border
     std::vector<cv::Point2f> edge;
     for (double t = 0.2 * len; t <= 0.8 * len; t += 0.5) {
       const cv::Point2d p = a + d * t;
-      constexpr double kStep = 0.1;
-      const int m = static_cast<int>(half / kStep);
-      std::vector<double> profile(2 * m + 1);
-      for (int i = -m; i <= m; ++i) {
+      profile.resize(2 * (m + pad) + 1);
+      for (int i = -m - pad; i <= m + pad; ++i) {
         const cv::Point2d q = p + n * (i * kStep);
-        profile[i + m] = Sample(f, q.x, q.y);
+        profile[i + m + pad] = Sample(f, q.x, q.y);
       }
+      // Contrast across the window's ends (half a pixel each): the plate's side must differ.
       double inner = 0, outer = 0;
-      const int ends = std::max(1, static_cast<int>(0.5 / kStep));
+      const int ends = static_cast<int>(0.5 / kStep);
       for (int i = 0; i < ends; ++i) {
-        inner += profile[i] / ends;
-        outer += profile[2 * m - i] / ends;
+        inner += profile[pad + i] / ends;
+        outer += profile[pad + 2 * m - i] / ends;
       }
       if (std::abs(outer - inner) < 0.05) continue;
-      const double mid = 0.5 * (inner + outer);
-      // The crossing nearest the contour's line (i = m).
-      double best = 1e18;
-      for (int i = 0; i < 2 * m; ++i) {
-        const double p0 = profile[i] - mid, p1 = profile[i + 1] - mid;
-        if ((p0 <= 0) == (p1 <= 0)) continue;
-        const double s = (i + p0 / (p0 - p1) - m) * kStep;
-        if (std::abs(s) < std::abs(best)) best = s;
+      if (options.edge == EdgeLocator::kMidLevel) {
+        const double mid = 0.5 * (inner + outer);
+        double best = 1e18;
+        for (int i = pad; i < pad + 2 * m; ++i) {
+          const double p0 = profile[i] - mid, p1 = profile[i + 1] - mid;
+          if ((p0 <= 0) == (p1 <= 0)) continue;
+          const double at = (i - pad + p0 / (p0 - p1) - m) * kStep;
+          if (std::abs(at) < std::abs(best)) best = at;
+        }
+        if (std::abs(best) > half) continue;
+        const cv::Point2d e = p + n * best;
+        edge.emplace_back(static_cast<float>(e.x), static_cast<float>(e.y));
+        continue;
       }
-      if (std::abs(best) > half) continue;
-      const cv::Point2d e = p + n * best;
+      const double sign = outer > inner ? 1 : -1;
+      slope.assign(2 * m + 1, 0.0);
+      double strongest = 0;
+      for (int i = 1; i < 2 * m; ++i) {
+        double acc = 0;
+        for (int j = -r; j <= r; ++j) {
+          const int c = pad + i + j;
+          acc += kernel[j + r] * (profile[c + 1] - profile[c - 1]);
+        }
+        slope[i] = sign * acc;
+        strongest = std::max(strongest, slope[i]);
+      }
+      int peak = -1;
+      for (int i = 2; i < 2 * m - 1; ++i) {
+        if (slope[i] < 0.5 * strongest || slope[i] < slope[i - 1] || slope[i] < slope[i + 1]) continue;
+        if (peak < 0 || std::abs(i - m) < std::abs(peak - m)) peak = i;
+      }
+      if (peak < 0) continue;
+      const double y0 = slope[peak - 1], y1 = slope[peak], y2 = slope[peak + 1];
+      const double curvature = y0 - 2 * y1 + y2;
+      const double offset = curvature < 0 ? std::clamp(0.5 * (y0 - y2) / curvature, -0.5, 0.5) : 0.0;
+      const cv::Point2d e = p + n * ((peak + offset - m) * kStep);
       edge.emplace_back(static_cast<float>(e.x), static_cast<float>(e.y));
     }
     if (edge.size() < 3) return false;
@@ -320,6 +362,9 @@ std::string SquareGridOptions::Check() const {
   }
   if (!core::InRange(min_hole_area_px, 1, 1e6)) {
     return core::OptionFail("min_hole_area_px", min_hole_area_px, "in [1, 1e6]");
+  }
+  if (!core::InRange(edge_sigma_px, 0.3, 3)) {
+    return core::OptionFail("edge_sigma_px", edge_sigma_px, "in [0.3, 3]");
   }
   return "";
 }
@@ -553,7 +598,7 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
           }
           if (candidate) {
             pl.recovered[r * target.cols + c] = *candidate;
-          } else if (RefineWithProfiles(f, predicted) && RefineWithProfiles(f, predicted)) {
+          } else if (RefineWithProfiles(f, options, predicted) && RefineWithProfiles(f, options, predicted)) {
             pl.recovered[r * target.cols + c] = predicted;
           }
         }
@@ -593,17 +638,17 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   std::vector<cv::Point2d> final_plane, final_pixels;
   for (auto& [id, hole] : by_id) {
     Hole h = *hole;
-    if (options.refine && !RefineWithProfiles(f, h) && !H_contour.empty()) {
+    if (options.refine && !RefineWithProfiles(f, options, h) && !H_contour.empty()) {
       std::vector<cv::Point2d> plane_corners, predicted;
       for (int k = 0; k < 4; ++k)
         plane_corners.push_back(corner_in_target(id % target.cols, id / target.cols, k));
       cv::perspectiveTransform(plane_corners, predicted, H_contour);
       Hole again = h;
       for (int k = 0; k < 4; ++k) again.corners[k] = predicted[static_cast<size_t>(k)];
-      if (RefineWithProfiles(f, again)) h = again;
+      if (RefineWithProfiles(f, options, again)) h = again;
     }
     // A second pass samples its profiles across the refined sides.
-    if (options.refine) RefineWithProfiles(f, h);
+    if (options.refine) RefineWithProfiles(f, options, h);
     for (int k = 0; k < 4; ++k) {
       detection.corner_ids.push_back(4 * id + k);
       detection.pixels.emplace_back(h.corners[k].x, h.corners[k].y);
