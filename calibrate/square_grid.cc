@@ -30,15 +30,6 @@ struct Hole {
 
 double Cross(const cv::Point2d& a, const cv::Point2d& b) { return a.x * b.y - a.y * b.x; }
 
-// Intersection of lines (point, direction); false when parallel.
-bool Intersect(const cv::Point2d& p1, const cv::Point2d& d1, const cv::Point2d& p2,
-               const cv::Point2d& d2, cv::Point2d* out) {
-  const double den = Cross(d1, d2);
-  if (std::abs(den) < 1e-9) return false;
-  *out = p1 + d1 * (Cross(p2 - p1, d2) / den);
-  return true;
-}
-
 // The image as float in [0, 1] between its 1st and 99th percentiles (robust to the raw
 // range of 16-bit counts and to a few hot or dead pixels).
 cv::Mat Normalised(const cv::Mat& image) {
@@ -58,17 +49,6 @@ cv::Mat Normalised(const cv::Mat& image) {
   const double scale = hi > lo ? 1.0 / (hi - lo) : 1.0;
   f.convertTo(f, CV_32F, scale, -lo * scale);
   return f;
-}
-
-// Bilinear sample of a CV_32F image (clamped to the border).
-double Sample(const cv::Mat& f, double x, double y) {
-  x = std::clamp(x, 0.0, f.cols - 1.001);
-  y = std::clamp(y, 0.0, f.rows - 1.001);
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const double ax = x - x0, ay = y - y0;
-  const double a = f.at<float>(y0, x0), b = f.at<float>(y0, x0 + 1);
-  const double c = f.at<float>(y0 + 1, x0), d = f.at<float>(y0 + 1, x0 + 1);
-  return (1 - ay) * ((1 - ax) * a + ax * b) + ay * ((1 - ax) * c + ax * d);
 }
 
 // Orders a quad's corners as TL TR BR BL in the orientation rule of the header and sets
@@ -145,111 +125,18 @@ void FitContourLines(Hole& h) {
   Quad out;
   for (int k = 0; k < 4; ++k) {
     // Corner k is where side k-1 (ending at it) meets side k (starting at it).
-    if (!Intersect(point[(k + 3) % 4], dir[(k + 3) % 4], point[k], dir[k], &out[k])) return;
+    if (!IntersectLines(point[(k + 3) % 4], dir[(k + 3) % 4], point[k], dir[k], &out[k])) return;
     if (cv::norm(out[k] - h.corners[k]) > 3.0) return;
   }
   h.corners = out;
 }
 
-// Sub-pixel sides: along each side, intensity profiles across it (from the hole into the
-// plate, sampled every 0.1 px); an edge point per profile (SquareGridOptions::edge): where
-// the profile's derivative, smoothed by a Gaussian of `edge_sigma_px`, peaks (sub-sample by
-// a parabola through the peak; of the peaks of at least half the strongest one's slope, the
-// one nearest the current side), or where it crosses the mid-level of its two ends (the
-// crossing nearest the current side). A line through a side's edge points (Huber),
-// intersected with its neighbours' lines. Keeps the corners and returns false on failure.
+// The hole's corners refined on its sides' profiles (edge_profiles.h); false when that failed.
 bool RefineWithProfiles(const cv::Mat& f, const SquareGridOptions& options, Hole& h) {
-  const double edge_sigma_px = options.edge_sigma_px;
-  constexpr double kStep = 0.1;  // profile sampling, pixels
-  // d/ds of the Gaussian-smoothed profile = the profile's central differences smoothed.
-  const int r = static_cast<int>(std::ceil(3 * edge_sigma_px / kStep));
-  std::vector<double> kernel(2 * r + 1);
-  double kernel_sum = 0;
-  for (int j = -r; j <= r; ++j) {
-    kernel[j + r] = std::exp(-0.5 * std::pow(j * kStep / edge_sigma_px, 2));
-    kernel_sum += kernel[j + r];
-  }
-  for (double& w : kernel) w /= kernel_sum * 2 * kStep;
-  std::array<cv::Point2d, 4> point, dir;
-  std::vector<double> profile, slope;
-  for (int k = 0; k < 4; ++k) {
-    const cv::Point2d a = h.corners[k], b = h.corners[(k + 1) % 4];
-    const double len = cv::norm(b - a);
-    if (len < 3) return false;
-    const cv::Point2d d = (b - a) / len;
-    cv::Point2d n(d.y, -d.x);
-    if (n.dot(0.5 * (a + b) - h.centre) < 0) n = -n;
-    const double half = std::clamp(0.3 * len, 2.0, 5.0);
-    const int m = static_cast<int>(half / kStep);
-    const int pad = r + 1;  // samples beyond the window so the smoothing sees no border
-    std::vector<cv::Point2f> edge;
-    for (double t = 0.2 * len; t <= 0.8 * len; t += 0.5) {
-      const cv::Point2d p = a + d * t;
-      profile.resize(2 * (m + pad) + 1);
-      for (int i = -m - pad; i <= m + pad; ++i) {
-        const cv::Point2d q = p + n * (i * kStep);
-        profile[i + m + pad] = Sample(f, q.x, q.y);
-      }
-      // Contrast across the window's ends (half a pixel each): the plate's side must differ.
-      double inner = 0, outer = 0;
-      const int ends = static_cast<int>(0.5 / kStep);
-      for (int i = 0; i < ends; ++i) {
-        inner += profile[pad + i] / ends;
-        outer += profile[pad + 2 * m - i] / ends;
-      }
-      if (std::abs(outer - inner) < 0.05) continue;
-      if (options.edge == EdgeLocator::kMidLevel) {
-        const double mid = 0.5 * (inner + outer);
-        double best = 1e18;
-        for (int i = pad; i < pad + 2 * m; ++i) {
-          const double p0 = profile[i] - mid, p1 = profile[i + 1] - mid;
-          if ((p0 <= 0) == (p1 <= 0)) continue;
-          const double at = (i - pad + p0 / (p0 - p1) - m) * kStep;
-          if (std::abs(at) < std::abs(best)) best = at;
-        }
-        if (std::abs(best) > half) continue;
-        const cv::Point2d e = p + n * best;
-        edge.emplace_back(static_cast<float>(e.x), static_cast<float>(e.y));
-        continue;
-      }
-      const double sign = outer > inner ? 1 : -1;
-      slope.assign(2 * m + 1, 0.0);
-      double strongest = 0;
-      for (int i = 1; i < 2 * m; ++i) {
-        double acc = 0;
-        for (int j = -r; j <= r; ++j) {
-          const int c = pad + i + j;
-          acc += kernel[j + r] * (profile[c + 1] - profile[c - 1]);
-        }
-        slope[i] = sign * acc;
-        strongest = std::max(strongest, slope[i]);
-      }
-      int peak = -1;
-      for (int i = 2; i < 2 * m - 1; ++i) {
-        if (slope[i] < 0.5 * strongest || slope[i] < slope[i - 1] || slope[i] < slope[i + 1]) continue;
-        if (peak < 0 || std::abs(i - m) < std::abs(peak - m)) peak = i;
-      }
-      if (peak < 0) continue;
-      const double y0 = slope[peak - 1], y1 = slope[peak], y2 = slope[peak + 1];
-      const double curvature = y0 - 2 * y1 + y2;
-      const double offset = curvature < 0 ? std::clamp(0.5 * (y0 - y2) / curvature, -0.5, 0.5) : 0.0;
-      const cv::Point2d e = p + n * ((peak + offset - m) * kStep);
-      edge.emplace_back(static_cast<float>(e.x), static_cast<float>(e.y));
-    }
-    if (edge.size() < 3) return false;
-    cv::Vec4f line;
-    cv::fitLine(edge, line, cv::DIST_HUBER, 0, 0.01, 0.01);
-    dir[k] = cv::Point2d(line[0], line[1]);
-    point[k] = cv::Point2d(line[2], line[3]);
-  }
-  Quad out;
-  for (int k = 0; k < 4; ++k) {
-    if (!Intersect(point[(k + 3) % 4], dir[(k + 3) % 4], point[k], dir[k], &out[k])) return false;
-    if (cv::norm(out[k] - h.corners[k]) > std::max(2.0, 0.3 * cv::norm(h.corners[k] - h.centre)))
-      return false;
-  }
-  h.corners = out;
-  return true;
+  EdgeProfileOptions edges;
+  edges.edge = options.edge;
+  edges.edge_sigma_px = options.edge_sigma_px;
+  return RefineSquareCorners(f, edges, h.centre, h.corners);
 }
 
 // Square blobs of one polarity (holes brighter than their surroundings when `bright`)
@@ -483,10 +370,10 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   for (const auto& [i, c] : best.cell) {
     const cv::Point2d centre =
         project(corner_in_target(c.first - min_c, c.second - min_r, 0) + cv::Point2d(s / 2, s / 2));
-    hole_levels.push_back(Sample(f, centre.x, centre.y));
+    hole_levels.push_back(SampleBilinear(f, centre.x, centre.y));
     const cv::Point2d bar = project(corner_in_target(c.first - min_c, c.second - min_r, 0) +
                                     cv::Point2d(s + (p - s) / 2, s / 2));
-    plate_levels.push_back(Sample(f, bar.x, bar.y));
+    plate_levels.push_back(SampleBilinear(f, bar.x, bar.y));
   }
   const auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -498,7 +385,7 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
   std::erase_if(best.cell, [&](const auto& entry) {
     const Hole& h = best.holes[entry.first];
     const double rel =
-        (Sample(f, h.centre.x, h.centre.y) - hole_level) / (plate_level - hole_level);
+        (SampleBilinear(f, h.centre.x, h.centre.y) - hole_level) / (plate_level - hole_level);
     const int col = entry.second.first - min_c, row = entry.second.second - min_r;
     const double pitch_px = cv::norm(project(corner_in_target(col + 1, row, 0)) -
                                      project(corner_in_target(col, row, 0)));
@@ -526,7 +413,7 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
     int n = 0;
     for (const cv::Point2d& q : image_points) {
       if (q.x < 0 || q.y < 0 || q.x > f.cols - 1 || q.y > f.rows - 1) return std::nan("");
-      sum += Sample(f, q.x, q.y);
+      sum += SampleBilinear(f, q.x, q.y);
       ++n;
     }
     return (sum / n - hole_level) / contrast;  // 0: hole level, 1: plate level
@@ -569,7 +456,7 @@ Detection DetectSquareGrid(const cv::Mat& image, const core::Target& target,
           int plate_points = 0;
           for (const cv::Point2d& q : spread_px) {
             if (q.x < 0 || q.y < 0 || q.x > f.cols - 1 || q.y > f.rows - 1) continue;
-            plate_points += (Sample(f, q.x, q.y) - hole_level) / contrast > 0.75;
+            plate_points += (SampleBilinear(f, q.x, q.y) - hole_level) / contrast > 0.75;
           }
           if (5 * plate_points >= static_cast<int>(spread.size())) {
             pl.score -= 2;

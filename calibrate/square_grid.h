@@ -21,24 +21,10 @@
 #include <opencv2/core.hpp>
 
 #include "calibrate/detection.h"
+#include "calibrate/edge_profiles.h"
 #include "core/rig.h"
 
 namespace hw::calibrate {
-
-// Where on a profile across a hole's side the edge is placed.
-enum class EdgeLocator {
-  // The steepest point (derivative-of-Gaussian peak): the step itself, whatever the levels
-  // beside it (a background heated near the plate, seen through the hole with a parallax
-  // that changes with the view, moves the mid-level but not the step). Where the hole's
-  // side wall shows it lands between the wall's two steps. For solvers that estimate the
-  // apparent shape (the intrinsics' target-shape model, mrcal_problem.h).
-  kSteepest,
-  // The crossing of the mid-level between the profile's ends (5 px each side on large
-  // holes): the outline between the background and what is not background, the walls
-  // counted as plate when their level is nearer the plate's. For solvers that model that
-  // outline geometrically (the target extrinsics' visible hole corners, hole_corner.h).
-  kMidLevel,
-};
 
 struct SquareGridOptions {
   // Sub-pixel refinement of the corners: lines fitted to edge points on intensity profiles
@@ -46,12 +32,9 @@ struct SquareGridOptions {
   // half a pixel outwards). Measured in square_grid_test.cc and intrinsics_truth_test.cc
   // (README, *Calibration bench*).
   bool refine = true;
+  // Where on a side's profile the edge is, and the scale of kSteepest (edge_profiles.h).
   EdgeLocator edge = EdgeLocator::kSteepest;
-  // kSteepest: scale of the derivative-of-Gaussian, pixels, [0.3, 3]. Above the half pixel
-  // over which bilinear sampling's slope is constant, below the 2 px between a hole's edge
-  // and its neighbours' on the smallest holes detected; 0.8 px measured best of 0.8 / 1.0 /
-  // 1.5 on the small and full sessions (README). Larger suits noisier images.
-  double edge_sigma_px = 0.8;
+  double edge_sigma_px = 0.8;  // pixels, [0.3, 3]
   // A view whose corners fit the best homography from the target plane worse (RMS, pixels)
   // is rejected: a wrong order or a bad corner. (0, 50]. Lens distortion adds to it.
   double max_homography_rms_px = 2.0;
