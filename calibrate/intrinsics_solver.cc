@@ -196,12 +196,14 @@ void SolveSeeded(MrcalProblem& problem, const IntrinsicsOptions& options, bool c
 // square_grid (a heated mask) a shift in the image and F(u) on knots tan = -1 ... 1 every
 // 0.25 (u's range in practice: views tilted up to 45 degrees; the spacing resolves the bled
 // background's parallax, which saturates within |u| ~ 0.2 on the fixtures' masks);
-// aprilgrid the shift in the image; chessboards nothing.
+// aprilgrid the shift in the image and a constant F (metres on the target: together a
+// shift linear in the tags' size in pixels, and the print's ink spread); chessboards nothing.
 TargetShapeModel ShapeModel(const core::Target& target, const IntrinsicsOptions& options) {
   TargetShapeModel shape;
   if (!options.estimate_target_shape || target.type == core::TargetType::kChessboard) return shape;
   shape.pixel_offset = true;
   if (target.type == core::TargetType::kSquareGrid) shape.knots_u = {-1, -0.75, -0.5, -0.25, 0, 0.25, 0.5, 0.75, 1};
+  if (target.type == core::TargetType::kAprilGrid) shape.knots_u = {0};
   return shape;
 }
 

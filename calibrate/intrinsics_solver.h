@@ -35,8 +35,9 @@ struct IntrinsicsOptions {
   bool staged = true;
   // Estimate, with the camera, how the squares the detector sees differ from the target's
   // (mrcal_problem.h, TargetShapeModel): square_grid (a heated mask) the edges' shift as a
-  // function of the viewing angle and a shift in the image, aprilgrid the
-  // shift in the image; chessboards nothing (their saddle corners do not move with the edges).
+  // function of the viewing angle and a shift in the image, aprilgrid a shift in the image
+  // and one on the target (the detector's bias grows with the tags' size in pixels);
+  // chessboards nothing (their saddle corners do not move with the edges).
   // Without it, on the fixtures' thermal sessions, the holes' apparent shrinkage (heat
   // bleeding) and their side walls (seen only when they face the camera) bias the focal
   // length by 3-4 sigma.

@@ -38,7 +38,9 @@ Eigen::Vector3d MrcalTransform(const mrcal_pose_t& rt, const Eigen::Vector3d& p_
 // behind them), their side walls (the plate's thickness, at a temperature between the
 // plate's and the background's) show only when they face the camera, and the bled
 // background behind a hole is seen shifted by parallax — all functions of u. Printed tags
-// look larger or smaller with blur and gamma: a constant.
+// look larger or smaller with blur and gamma, by an amount that changes with their size in
+// the image (a constant F beside the pixel offset: a shift linear in that size; and the
+// print's ink spread, which is one in metres).
 // A linear F (F = α u) moves every corner of a view by α (c − p)/d in the plane (c the
 // camera centre, d its distance): exactly the target plane moved α along its normal, which
 // the poses absorb. That direction is fixed by a stiff prior (F's least-squares line
