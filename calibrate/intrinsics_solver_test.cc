@@ -9,6 +9,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calibrate/synthetic_views.h"
@@ -36,6 +37,20 @@ core::CameraModel TruthCamera() { return test::SyntheticCamera(); }
 std::vector<core::Rigid3d> RandomPoses(int count, bool fronto_parallel, unsigned seed,
                                        const core::Target& target = Chessboard()) {
   return test::RandomTargetPoses(TruthCamera(), target, count, fronto_parallel, seed);
+}
+
+// χ² of a solution's 9 intrinsics against the truth under its own covariance.
+double Chi2AgainstTruth(const IntrinsicsResult& r) {
+  const Eigen::VectorXd error = r.camera.Params() - TruthCamera().Params();
+  return error.dot(r.intrinsics_covariance.ldlt().solve(error));
+}
+
+// The solution with the target shape estimated (the default) and ignored.
+std::pair<IntrinsicsResult, IntrinsicsResult> SolveWithAndWithoutShape(const core::Target& target,
+                                                                      const std::vector<ViewObservation>& views) {
+  IntrinsicsOptions ignore;
+  ignore.estimate_target_shape = false;
+  return {SolveIntrinsics(target, 640, 480, views), SolveIntrinsics(target, 640, 480, views, ignore)};
 }
 
 std::vector<ViewObservation> Observe(const std::vector<core::Rigid3d>& poses, double noise_px,
@@ -96,17 +111,11 @@ TEST(SolveIntrinsics, MatchesTruthWithinItsCovariance) {
 // A square_grid target (4 corners per hole: not the regular lattice of mrcal's chessboard
 // observations) with 20 % of the corners missing in every view.
 TEST(SolveIntrinsics, SquareGridWithMissingCorners) {
-  core::Target target;
-  target.type = core::TargetType::kSquareGrid;
-  target.rows = 4;
-  target.cols = 5;
-  target.square_m = 0.03;
-  target.pitch_m = 0.06;
+  const core::Target target = test::SquareGridTarget(4, 5, 0.03, 0.06);
   const std::vector<core::Rigid3d> poses = RandomPoses(15, false, 21, target);
   const std::vector<ViewObservation> views = Observe(poses, kNoisePx, 22, target, 0.8);
   const IntrinsicsResult result = SolveIntrinsics(target, 640, 480, views);
-  const Eigen::VectorXd error = result.camera.Params() - TruthCamera().Params();
-  const double chi2 = error.dot(result.intrinsics_covariance.ldlt().solve(error));
+  const double chi2 = Chi2AgainstTruth(result);
   std::printf("  square_grid, 15 views, 80 %% of 80 corners: chi2 %.2f, sigma %.4f px\n", chi2,
               result.observation_sigma_px);
   EXPECT_LT(chi2, 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
@@ -120,12 +129,7 @@ TEST(SolveIntrinsics, SquareGridWithMissingCorners) {
 // covariance and F is recovered at the knots (up to the linear part the poses absorb);
 // ignored, the same data bias the intrinsics far beyond it.
 TEST(SolveIntrinsics, EstimatesTheTargetShapeOfAHeatedMask) {
-  core::Target target;
-  target.type = core::TargetType::kSquareGrid;
-  target.rows = 5;
-  target.cols = 7;
-  target.square_m = 0.02;
-  target.pitch_m = 0.035;
+  const core::Target target = test::SquareGridTarget(5, 7, 0.02, 0.035);
   const auto F = [](double u) { return -0.0004 + 0.0015 * std::max(0.0, u); };
   const std::vector<core::Rigid3d> poses = RandomPoses(20, false, 31, target);
   const std::vector<Eigen::Vector3d> corners = core::TargetCorners(target);
@@ -147,19 +151,11 @@ TEST(SolveIntrinsics, EstimatesTheTargetShapeOfAHeatedMask) {
     }
     views.push_back(std::move(view));
   }
-  const Eigen::VectorXd truth = TruthCamera().Params();
-  const auto chi2 = [&](const IntrinsicsResult& r) {
-    const Eigen::VectorXd error = r.camera.Params() - truth;
-    return error.dot(r.intrinsics_covariance.ldlt().solve(error));
-  };
-  const IntrinsicsResult estimated = SolveIntrinsics(target, 640, 480, views);
-  IntrinsicsOptions ignore;
-  ignore.estimate_target_shape = false;
-  const IntrinsicsResult ignored = SolveIntrinsics(target, 640, 480, views, ignore);
+  const auto [estimated, ignored] = SolveWithAndWithoutShape(target, views);
   std::printf("  heated mask with walls: chi2 %.1f estimated (rms %.3f px), %.1f ignored (rms %.3f px)\n",
-              chi2(estimated), estimated.rms_px, chi2(ignored), ignored.rms_px);
-  EXPECT_LT(chi2(estimated), 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
-  EXPECT_GT(chi2(ignored), 40.0);  // p = 4e-6 for an unbiased solution
+              Chi2AgainstTruth(estimated), estimated.rms_px, Chi2AgainstTruth(ignored), ignored.rms_px);
+  EXPECT_LT(Chi2AgainstTruth(estimated), 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
+  EXPECT_GT(Chi2AgainstTruth(ignored), 40.0);  // p = 4e-6 for an unbiased solution
   // F at the knots the views reach (|u| <= 0.5 here), relative to F(0), up to the linear
   // part α u the poses absorb (mrcal_problem.h): the difference to the truth, less its best
   // line through 0, is noise. (F's constant trades with the shift in the image: at one
@@ -234,22 +230,14 @@ TEST(SolveIntrinsics, EstimatesAnAprilGridsShiftInTheImageAndOnTheTarget) {
     }
     views.push_back(std::move(view));
   }
-  const Eigen::VectorXd truth = TruthCamera().Params();
-  const auto chi2 = [&](const IntrinsicsResult& r) {
-    const Eigen::VectorXd error = r.camera.Params() - truth;
-    return error.dot(r.intrinsics_covariance.ldlt().solve(error));
-  };
-  const IntrinsicsResult estimated = SolveIntrinsics(target, 640, 480, views);
-  IntrinsicsOptions ignore;
-  ignore.estimate_target_shape = false;
-  const IntrinsicsResult ignored = SolveIntrinsics(target, 640, 480, views, ignore);
+  const auto [estimated, ignored] = SolveWithAndWithoutShape(target, views);
   ASSERT_EQ(estimated.edge_shift_m.size(), 1u);
   std::printf("  aprilgrid: chi2 %.1f estimated, %.1f ignored; image shift %.3f +- %.3f px (true %.3f), "
               "target shift %.3f +- %.3f mm (true %.3f)\n",
-              chi2(estimated), chi2(ignored), estimated.edge_shift_px, estimated.edge_shift_sigma_px, kImageShiftPx,
+              Chi2AgainstTruth(estimated), Chi2AgainstTruth(ignored), estimated.edge_shift_px, estimated.edge_shift_sigma_px, kImageShiftPx,
               1e3 * estimated.edge_shift_m[0], 1e3 * estimated.edge_shift_sigma_m[0], 1e3 * kTargetShiftM);
-  EXPECT_LT(chi2(estimated), 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
-  EXPECT_GT(chi2(ignored), 40.0);
+  EXPECT_LT(Chi2AgainstTruth(estimated), 27.9);  // chi-square, 9 degrees of freedom, p = 0.001
+  EXPECT_GT(Chi2AgainstTruth(ignored), 40.0);
   EXPECT_NEAR(estimated.edge_shift_px, kImageShiftPx, 3 * estimated.edge_shift_sigma_px);
   EXPECT_NEAR(estimated.edge_shift_m[0], kTargetShiftM, 3 * estimated.edge_shift_sigma_m[0]);
 }
@@ -258,27 +246,14 @@ TEST(SolveIntrinsics, EstimatesAnAprilGridsShiftInTheImageAndOnTheTarget) {
 // view), 6 views. Knots no edge reaches are held by the prior's gauge row alone; the
 // solution must not be worse than with the shape ignored by more than the noise.
 TEST(SolveIntrinsics, TinyMaskSolvesWithTheTargetShape) {
-  core::Target target;
-  target.type = core::TargetType::kSquareGrid;
-  target.rows = 2;
-  target.cols = 2;
-  target.square_m = 0.04;
-  target.pitch_m = 0.07;
+  const core::Target target = test::SquareGridTarget(2, 2, 0.04, 0.07);
   const std::vector<core::Rigid3d> poses = RandomPoses(6, false, 41, target);
   const std::vector<ViewObservation> views = Observe(poses, kNoisePx, 42, target);
-  IntrinsicsOptions ignore;
-  ignore.estimate_target_shape = false;
-  const IntrinsicsResult ignored = SolveIntrinsics(target, 640, 480, views, ignore);
-  const IntrinsicsResult estimated = SolveIntrinsics(target, 640, 480, views);
-  const Eigen::VectorXd truth = TruthCamera().Params();
-  const auto chi2 = [&](const IntrinsicsResult& r) {
-    const Eigen::VectorXd error = r.camera.Params() - truth;
-    return error.dot(r.intrinsics_covariance.ldlt().solve(error));
-  };
+  const auto [estimated, ignored] = SolveWithAndWithoutShape(target, views);
   std::printf("  2 x 2 mask, 6 views: chi2 %.1f estimated, %.1f ignored; sigma fx %.2f vs %.2f px\n",
-              chi2(estimated), chi2(ignored), std::sqrt(estimated.intrinsics_covariance(0, 0)),
+              Chi2AgainstTruth(estimated), Chi2AgainstTruth(ignored), std::sqrt(estimated.intrinsics_covariance(0, 0)),
               std::sqrt(ignored.intrinsics_covariance(0, 0)));
-  EXPECT_LT(chi2(estimated), 27.9);
+  EXPECT_LT(Chi2AgainstTruth(estimated), 27.9);
   EXPECT_TRUE(std::isfinite(estimated.edge_shift_px));
   for (double sigma : estimated.edge_shift_sigma_m) EXPECT_TRUE(std::isfinite(sigma));
 }

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "calibrate/synthetic_views.h"
 #include "core/output_folder.h"
 #include "core/scan.h"
 #include "fixtures/calibration_sessions.h"
@@ -117,12 +118,7 @@ struct EdgeScore {
   double outward_px = 0, rms_px = 0;
 };
 EdgeScore DetectDrawnMask(double pedestal) {
-  core::Target target;
-  target.type = core::TargetType::kSquareGrid;
-  target.rows = 4;
-  target.cols = 5;
-  target.square_m = 0.02;
-  target.pitch_m = 0.04;
+  const core::Target target = test::SquareGridTarget(4, 5, 0.02, 0.04);
   constexpr int kSub = 8, kW = 200, kH = 160;
   constexpr double kPxPerM = 600, kAngle = 7 * M_PI / 180;
   const Eigen::Vector2d origin(45, 40);  // pixel of the target frame's origin (the first hole's TL)
@@ -343,12 +339,7 @@ TEST(SquareGridRobustness, PolarityDepthContrastAndOcclusion) {
 
 // No target: smooth clutter and a few lone squares of several sizes.
 TEST(SquareGridRobustness, NoTargetIsRejectedWithAReason) {
-  core::Target target;
-  target.type = core::TargetType::kSquareGrid;
-  target.rows = 3;
-  target.cols = 4;
-  target.square_m = 0.04;
-  target.pitch_m = 0.065;
+  const core::Target target = test::SquareGridTarget(3, 4, 0.04, 0.065);
   cv::Mat clutter(120, 160, CV_32F);
   cv::randu(clutter, 15.0, 30.0);
   cv::GaussianBlur(clutter, clutter, cv::Size(0, 0), 6.0);

@@ -18,6 +18,17 @@
 
 namespace hw::calibrate::test {
 
+// A square_grid target of rows × cols holes of side square_m at pitch_m, metres.
+inline core::Target SquareGridTarget(int rows, int cols, double square_m, double pitch_m) {
+  core::Target target;
+  target.type = core::TargetType::kSquareGrid;
+  target.rows = rows;
+  target.cols = cols;
+  target.square_m = square_m;
+  target.pitch_m = pitch_m;
+  return target;
+}
+
 // 640 × 480, OpenCV 5-coefficient camera with a strong barrel distortion.
 inline core::CameraModel SyntheticCamera() {
   core::CameraModel camera;
