@@ -70,6 +70,7 @@ TruthComparison SolveAndCompare(CalibrationSessionKind kind, bool small, uint64_
     if (variant == "lowcontrast" || variant == "harsh")
       options.thermal_square_grid.mask.hot_c = options.thermal_square_grid.mask.cold_c + 3;
     if (variant == "noisy" || variant == "harsh") options.thermal_square_grid.common.thermal.netd_k = 0.15;
+    if (variant == "cold") options.thermal_square_grid.mask.plate_hotter = false;  // the other polarity
     name += "-" + variant;
   }
   const fs::path dir = fixtures::test::CachedSession(name, options, thermal ? "thermal.txt" : "rgb.txt");
@@ -166,7 +167,7 @@ TEST(IntrinsicsTruthTest, DISABLED_FullSizeSessionsProjectLikeTheTruthWithinTheR
 // (INTR_THICKNESS_M sets the mask's plate thickness, m; default the preset's 3 mm;
 // INTR_VARIANT=nobleed|sharp|uniform removes heat bleeding, defocus or uneven heating;
 // lowcontrast makes the mask 3 K warmer than its background, noisy the NETD 0.15 K, harsh
-// both).
+// both; cold renders a plate colder than its background).
 TEST(IntrinsicsTruthTest, DISABLED_OneFullThermalSession) {
   const uint64_t seed = std::getenv("INTR_SEED") ? std::strtoull(std::getenv("INTR_SEED"), nullptr, 10) : 3;
   SolveAndCompare(CalibrationSessionKind::kThermalSquareGrid, false, seed, 16, false);
