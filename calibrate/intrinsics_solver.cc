@@ -119,10 +119,11 @@ double SeedFocalPx(const std::vector<Eigen::Vector3d>& corners_target, int width
   if (!(a > 0) || !(0.5 * a_std / a <= kMaxSeedFocalRelativeError)) {
     throw std::invalid_argument(
         "intrinsics: the views do not constrain the focal length — the target is (nearly) "
-        "fronto-parallel in all of them (homography focal estimate: 1/f^2 = " +
+        "fronto-parallel in all of them, or too few views disagree too much through the lens's "
+        "distortion (homography focal estimate: 1/f^2 = " +
         std::to_string(a) + " +/- " + std::to_string(a_std) +
         " in units of the image size); tilt the target 20-40 degrees about different axes "
-        "in several views");
+        "in several views, and add views");
   }
   return 1.0 / std::sqrt(a) / scale;
 }

@@ -52,9 +52,10 @@ std::string ModelName(calibrate::LensModel m) {
 // Cells of the coverage grid per side sampled for the model difference: 5 × 5 points each.
 constexpr int kDifferencePointsPerCell = 5;
 
-calibrate::Detection Detect(const cv::Mat& image, const core::Target& target, const std::string& name) {
+calibrate::Detection Detect(const cv::Mat& image, const core::Target& target, const std::string& name,
+                            const calibrate::SquareGridOptions& grid) {
   switch (target.type) {
-    case core::TargetType::kSquareGrid: return calibrate::DetectSquareGrid(image, target, {}, name);
+    case core::TargetType::kSquareGrid: return calibrate::DetectSquareGrid(image, target, grid, name);
     case core::TargetType::kChessboard: return calibrate::DetectChessboard(image, target, {}, name);
     case core::TargetType::kAprilGrid: return calibrate::DetectAprilGrid(image, target, {}, name);
   }
@@ -116,6 +117,12 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
   root.Int("version", 1).String("command", "heatwave calibrate intrinsics");
   root.String("images", o.images.string()).String("camera", o.camera).String("lens_model", ModelName(o.solver.model));
   root.String("target", core::TargetTypeName(r.target.type) + StringPrintf(" %d x %d", r.target.rows, r.target.cols));
+  if (r.target.type == core::TargetType::kSquareGrid) {
+    root.Add("detector", core::JsonObject()
+                             .String("edges", o.grid.edge == calibrate::EdgeLocator::kSteepest ? "steepest" : "mid-level")
+                             .Number("edge_sigma_px", o.grid.edge_sigma_px)
+                             .str());
+  }
   root.Add("camera_model", camera.str()).Add("mrcal", mrcal.str());
   root.Int("views_used", static_cast<int64_t>(r.solved_views.size())).Int("images", static_cast<int64_t>(r.detections.size()));
   root.Number("rms_px", s.rms_px).String("rms_is", "RMS of the inlier corners' residual norms, as mrcal reports");
@@ -128,8 +135,8 @@ std::string IntrinsicsJson(const IntrinsicsCommandOptions& o, const IntrinsicsCo
              core::JsonObject()
                  .String("what", "outward shift of the squares' edges seen by the detector vs the target's, on the "
                                  "target as a function of the tangent of the viewing angle across the edge (> 0: the "
-                                 "camera faces that edge's side wall), and a shift in the image; estimated with the "
-                                 "camera, marginalised out")
+                                 "camera faces that edge's side wall; aprilgrid: one constant), and a shift in the "
+                                 "image; estimated with the camera, marginalised out")
                  .Number("edge_shift_px", s.edge_shift_px)
                  .Number("edge_shift_sigma_px", s.edge_shift_sigma_px)
                  .Add("tan_view_angle", ArrayJson(s.edge_shift_knots_u))
@@ -189,6 +196,9 @@ std::string IntrinsicsCommandOptions::Check() const {
     return "--spline-order, --spline-nx, --spline-ny, --spline-fov-deg: apply to --model splined only";
   }
   if (const std::string p = solver.Check(); !p.empty()) return p;
+  if (!grid.Check().empty()) {
+    return "--edge-sigma-px: must be in [0.3, 3], got " + StringPrintf("%g", grid.edge_sigma_px);
+  }
   return "";
 }
 
@@ -206,7 +216,7 @@ IntrinsicsCommandResult CalibrateIntrinsics(const IntrinsicsCommandOptions& o, b
   {
     core::ProgressBar bar("detect", static_cast<int64_t>(images.size()), "images", quiet);
     for (const calibrate::CalibrationImage& im : images) {
-      r.detections.push_back(Detect(im.image, r.target, im.name));
+      r.detections.push_back(Detect(im.image, r.target, im.name, o.grid));
       bar.Advance();
     }
   }
@@ -420,6 +430,10 @@ int RunCalibrate(int argc, char** argv) {
   bool no_target_shape = false;
   intrinsics->add_flag("--no-target-shape", no_target_shape,
                        "do not estimate the squares' apparent edge shift with the camera (square_grid, aprilgrid)");
+  intrinsics->add_option("--edge-sigma-px", o.grid.edge_sigma_px,
+                         "square_grid: scale of the edge finder's derivative of Gaussian, pixels, [0.3, 3]; larger "
+                         "for noisier images")
+      ->capture_default_str();
   intrinsics->add_option("--rig", o.rig_path, "rig.yaml to merge the camera into; default: the scan's");
   intrinsics->add_option("--out", o.out_folder, "output folder")->required();
   intrinsics->add_flag("--overwrite", o.overwrite, "replace an earlier calibration in --out");

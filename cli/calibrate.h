@@ -10,6 +10,7 @@
 
 #include "calibrate/detection.h"
 #include "calibrate/intrinsics_solver.h"
+#include "calibrate/square_grid.h"
 #include "calibrate/qa_profile.h"
 #include "core/rig.h"
 
@@ -20,6 +21,7 @@ struct IntrinsicsCommandOptions {
   std::filesystem::path target_path;  // target.yaml; "" = <images>/target.yaml
   std::string camera = "thermal";     // thermal | rgb | depth: the rig camera calibrated
   calibrate::IntrinsicsOptions solver;
+  calibrate::SquareGridOptions grid;   // the square_grid detector (--edge-sigma-px)
   std::filesystem::path profile_path;  // qa.yaml; "" = the defaults (calibrate/qa_profile.h)
   std::filesystem::path rig_path;      // rig.yaml to merge the camera into; "" = the scan's, if any
   std::filesystem::path out_folder;

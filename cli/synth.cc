@@ -219,7 +219,7 @@ struct SynthArguments {
   std::optional<double> scene_scale;
   std::optional<double> image_scale;
   std::string mask_polarity = "hot";
-  std::optional<int> views;           // --session bench: stills per target part
+  std::optional<int> views;           // stills: per target part of --session bench, or of a stills session
   std::string colour_target = "chessboard";  // --session bench
   std::optional<int> rooms;
   bool perturb_rig = false;
@@ -327,6 +327,21 @@ int RunSession(const SynthArguments& args, const CommonOptions& common) {
       throw UsageError("--duration: does not apply to session '" + args.session +
                        "' (its length is its number of views)");
     }
+  }
+  if (args.views) {
+    fixtures::TargetViewOptions* views =
+        *kind == fixtures::CalibrationSessionKind::kThermalSquareGrid   ? &o.thermal_square_grid.views
+        : *kind == fixtures::CalibrationSessionKind::kColourChessboard ? &o.chessboard.views
+        : *kind == fixtures::CalibrationSessionKind::kColourAprilGrid  ? &o.aprilgrid.views
+        : *kind == fixtures::CalibrationSessionKind::kTargetExtrinsics ? &o.target_extrinsics.views
+                                                                        : nullptr;
+    if (views == nullptr) {
+      throw UsageError("--views: does not apply to session '" + args.session + "' (it is a recording, not stills)");
+    }
+    if (!(*args.views >= 3 && *args.views <= 200)) {
+      throw UsageError("--views: must be in [3, 200], got " + std::to_string(*args.views));
+    }
+    views->num_views = *args.views;
   }
   if (args.image_scale) {
     // Views must still fit the target into the images: a quarter of the full size at least.
@@ -496,7 +511,9 @@ int RunSynth(int argc, char** argv) {
                  "default: the --size preset's (scans: small 0.125, full 1; sessions: small "
                  "0.5, full 1)");
   app.add_option("--rooms", args.rooms, "rooms of the 'large' scene");
-  app.add_option("--views", args.views, "session bench: stills per target part, [3, 200] (default 10 small, 20 full)");
+  app.add_option("--views", args.views,
+                 "stills, [3, 200]: per target part of session bench (default 10 small, 20 full), or of an "
+                 "intrinsics-* or extrinsics-target session (default: its preset's)");
   app.add_option("--colour-target", args.colour_target, "session bench: the colour intrinsics' target")
       ->check(CLI::IsMember({"chessboard", "aprilgrid"}))
       ->capture_default_str();
@@ -545,8 +562,8 @@ int RunSynth(int argc, char** argv) {
       throw UsageError("one of --scene or --session is required (--list shows them)");
     }
     if (args.out.empty()) throw UsageError("--out is required");
-    if (args.session != "bench" && (args.views || args.colour_target != "chessboard")) {
-      throw UsageError(std::string(args.views ? "--views" : "--colour-target") + ": applies to --session bench only");
+    if (args.session != "bench" && args.colour_target != "chessboard") {
+      throw UsageError("--colour-target: applies to --session bench only");
     }
     if (session->count() > 0) {
       // Scan-only options must not be silently ignored.

@@ -42,6 +42,14 @@ fs::path ChessboardSession() {
   return folder;
 }
 
+// A QA profile a 4-still small session can meet.
+fs::path WriteLenientProfile(const fs::path& folder) {
+  const fs::path path = folder / "qa.yaml";
+  hw::core::WriteFileAtomically(path, "version: 1\nmin_views: 3\nmin_coverage: 0.1\nmax_uncertainty_px: 100\n"
+                                      "max_rms_px: 1\nmax_worst_px: 10\nmax_view_rms_px: 2\nmax_outlier_fraction: 0.2\n");
+  return path;
+}
+
 TEST(CalibrateCli, SolvesTheSessionCameraAndGivesAVerdict) {
   const fs::path out = TestFolder() / "out";  // first: it empties this test's folder
   const fs::path session = ChessboardSession();
@@ -66,13 +74,33 @@ TEST(CalibrateCli, SolvesTheSessionCameraAndGivesAVerdict) {
   EXPECT_LT(JsonNumberAfter(json, "rms_px"), 0.5);
 
   // A profile the session can meet: exit 0.
-  hw::core::WriteFileAtomically(out.parent_path() / "qa.yaml",
-                                "version: 1\nmin_views: 3\nmin_coverage: 0.1\nmax_uncertainty_px: 100\n"
-                                "max_rms_px: 1\nmax_worst_px: 10\nmax_view_rms_px: 2\nmax_outlier_fraction: 0.2\n");
   r = Heatwave("calibrate intrinsics --images " + session.string() + " --camera rgb --overwrite --profile " +
-               (out.parent_path() / "qa.yaml").string() + " --out " + out.string());
+               WriteLenientProfile(out.parent_path()).string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(Read(out / "intrinsics.json").find("\"verdict\": \"PASS\""), std::string::npos);
+}
+
+// The heated-mask session (small, thermal, 16 stills: `synth --views`): the square_grid
+// detector's edge scale reaches the detector (another scale, other corners, another focal
+// length) and is recorded in intrinsics.json.
+TEST(CalibrateCli, TheEdgeScaleReachesTheSquareGridDetector) {
+  const fs::path folder = TestFolder();
+  const fs::path session = folder / "session";
+  Result r = Heatwave("synth --session intrinsics-thermal --size small --views 16 -q --out " + session.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  double fx[2] = {};
+  for (int k = 0; k < 2; ++k) {
+    const std::string sigma = k == 0 ? "0.8" : "1.5";
+    const fs::path out = folder / ("out-" + sigma);
+    r = Heatwave("calibrate intrinsics --images " + session.string() + " --camera thermal -q --edge-sigma-px " + sigma +
+                 " --profile " + WriteLenientProfile(folder).string() + " --out " + out.string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string json = Read(out / "intrinsics.json");
+    EXPECT_NE(json.find("\"edges\": \"steepest\""), std::string::npos);
+    EXPECT_DOUBLE_EQ(JsonNumberAfter(json, "edge_sigma_px"), std::stod(sigma));
+    fx[k] = hw::core::ReadRig(out / "rig.yaml").thermal->fx;
+  }
+  EXPECT_NE(fx[0], fx[1]);
 }
 
 TEST(CalibrateCli, BadInputsAreOneLineAndWriteNothing) {
@@ -124,6 +152,9 @@ TEST(CalibrateCli, BadInputsAreOneLineAndWriteNothing) {
   // Bad options.
   EXPECT_EQ(run(session.string(), " --camera infrared").exit_code, 2);
   EXPECT_EQ(run(session.string(), " --model fisheye").exit_code, 2);
+  r = run(session.string(), " --edge-sigma-px 0.1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--edge-sigma-px"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out));
 }
 
