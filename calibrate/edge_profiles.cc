@@ -38,8 +38,10 @@ bool RefineSquareCorners(const cv::Mat& f, const EdgeProfileOptions& options, co
                          std::array<cv::Point2d, 4>& corners) {
   const double edge_sigma_px = options.edge_sigma_px;
   constexpr double kStep = 0.1;  // profile sampling, pixels
-  // d/ds of the Gaussian-smoothed profile = the profile's central differences smoothed.
-  const int r = static_cast<int>(std::ceil(3 * edge_sigma_px / kStep));
+  // d/ds of the Gaussian-smoothed profile = the profile's central differences smoothed
+  // (kSteepest only: the mid-level needs neither the kernel nor samples beyond the window).
+  const bool steepest = options.edge == EdgeLocator::kSteepest;
+  const int r = steepest ? static_cast<int>(std::ceil(3 * edge_sigma_px / kStep)) : 0;
   std::vector<double> kernel(2 * r + 1);
   double kernel_sum = 0;
   for (int j = -r; j <= r; ++j) {
@@ -58,7 +60,7 @@ bool RefineSquareCorners(const cv::Mat& f, const EdgeProfileOptions& options, co
     if (n.dot(0.5 * (a + b) - centre) < 0) n = -n;
     const double half = std::clamp(0.3 * len, 2.0, 5.0);
     const int m = static_cast<int>(half / kStep);
-    const int pad = r + 1;  // samples beyond the window so the smoothing sees no border
+    const int pad = steepest ? r + 1 : 0;  // samples beyond the window for the smoothing
     std::vector<cv::Point2f> edge;
     for (double t = 0.2 * len; t <= 0.8 * len; t += 0.5) {
       const cv::Point2d p = a + d * t;
@@ -75,7 +77,7 @@ bool RefineSquareCorners(const cv::Mat& f, const EdgeProfileOptions& options, co
         outer += profile[pad + 2 * m - i] / ends;
       }
       if (std::abs(outer - inner) < 0.05) continue;
-      if (options.edge == EdgeLocator::kMidLevel) {
+      if (!steepest) {
         const double mid = 0.5 * (inner + outer);
         double best = 1e18;
         for (int i = pad; i < pad + 2 * m; ++i) {

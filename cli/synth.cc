@@ -616,6 +616,7 @@ int RunSynth(int argc, char** argv) {
       return RunSession(args, common);
     }
     if (args.mask_polarity != "hot") throw UsageError("--mask-polarity: applies to --session only");
+    if (args.views) throw UsageError("--views: applies to --session only");
     if (args.rooms && args.scene != "large") {
       throw UsageError("--rooms: applies to the 'large' scene only, not '" + args.scene + "'");
     }

@@ -263,6 +263,9 @@ TEST(CalibrateBenchCli, SynthBenchOptions) {
   r = Heatwave("synth --session latency --views 5 --out " + out.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--views: does not apply to session 'latency'"), std::string::npos) << r.output;
+  r = Heatwave("synth --scene equipment --views 5 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--views: applies to --session only"), std::string::npos) << r.output;
   r = Heatwave("synth --session intrinsics-thermal --views 201 --out " + out.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--views: must be in [3, 200], got 201"), std::string::npos) << r.output;
