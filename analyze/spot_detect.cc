@@ -306,10 +306,16 @@ double RegionMean(const Context& c, const std::vector<int>& region, const std::v
   return area > 0 ? sum / area : kNaN;
 }
 
-// Area-weighted mean of the hottest 5 % of the region: the peak that sets the level, robust
-// to one noisy vertex (on a plateau the maximum of N noisy vertices sits ~2σ high) while equal
-// to the maximum on an exact mesh whose extreme is a plateau or a line.
-double RobustPeak(const Context& c, const std::vector<int>& region) {
+// The peak that sets the level: the region's maximum less twice the noise of one vertex
+// (the largest of tens of noisy vertices stands ~2σ above the extreme they sample), but not
+// below the area-weighted mean of the hottest 5 % (a noisy plateau's top 5 % also sit ~2σ
+// high, so that bound changes nothing there, and it keeps one wild vertex among few from
+// setting the level). On an exact mesh (noise 0) the peak is the maximum whatever the
+// profile: a small lug's field peaks at its centre, where the hottest 5 % of its area
+// (22 mm², the apex vertex and part of the next) averaged 0.06 of the ΔT below the apex and
+// put its half-ΔT boundary 2.9 % too wide in area on the truth mesh. noise_c: one vertex's
+// standard error, K (NoiseOfHottest).
+double RobustPeak(const Context& c, const std::vector<int>& region, double noise_c) {
   std::vector<std::pair<double, double>> values;
   double total = 0;
   for (int v : region) {
@@ -323,9 +329,31 @@ double RobustPeak(const Context& c, const std::vector<int>& region) {
     weighted += value * area;
     if (sum >= 0.05 * total) break;
   }
-  return sum > 0 ? weighted / sum : values.front().first;
+  const double top = sum > 0 ? weighted / sum : values.front().first;
+  return std::max(top, values.front().first - 2 * noise_c);
 }
 
+// One vertex's noise at the region's top, K: the median standard error of the fused
+// estimate (temperature_std_c / √temperature_views) over the hottest 5 % of the region's
+// vertices where the mesh has them, else `fallback_c` (the surroundings' spread, once
+// measured; 0 before).
+double NoiseOfHottest(const Context& c, const std::vector<int>& region, double fallback_c) {
+  if (c.mesh.std_c.empty() || c.mesh.views.empty() || region.empty()) return fallback_c;
+  std::vector<std::pair<double, int>> by_value;
+  for (int v : region) by_value.emplace_back(c.field[U(v)], v);
+  const size_t n = std::max<size_t>(1, by_value.size() / 20);
+  std::partial_sort(by_value.begin(), by_value.begin() + static_cast<std::ptrdiff_t>(n), by_value.end(),
+                    std::greater<>());
+  std::vector<double> errors;
+  for (size_t i = 0; i < n; ++i) {
+    const int v = by_value[i].second;
+    const double sd = c.mesh.std_c[U(v)], views = c.mesh.views[U(v)];
+    if (std::isfinite(sd) && views >= 1) errors.push_back(sd / std::sqrt(views));
+  }
+  if (errors.empty()) return fallback_c;
+  std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(errors.size() / 2), errors.end());
+  return errors[errors.size() / 2];
+}
 
 // Measures one candidate of one kind (the field oriented so that the spot is a maximum).
 // Returns false with `reason` when it is not a spot.
@@ -351,7 +379,8 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     for (int v : m->region) (*in_region)[U(v)] = 0;
     // The level: half way (boundary_fraction) from the reference to the peak; the peak is
     // the robust one of the region at the previous level (the seed alone at first).
-    const double peak = m->region.empty() ? c.field[U(seed)] : RobustPeak(c, m->region);
+    const double noise = NoiseOfHottest(c, m->region, std::isfinite(m->ring.spread) ? m->ring.spread : 0.0);
+    const double peak = m->region.empty() ? c.field[U(seed)] : RobustPeak(c, m->region, noise);
     const double level = absolute ? absolute_level : reference + o.boundary_fraction * (peak - reference);
     // Against ambient the ΔT is known at once; the local background of a candidate (the
     // median within background_radius_m) is only a start: inside a spot wider than that
@@ -375,7 +404,8 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
     m->iso = ClipToLevel(c.mesh, c.field, faces, level, true);
     m->level = level;
-    m->peak = RobustPeak(c, m->region);
+    m->peak = RobustPeak(c, m->region,
+                         NoiseOfHottest(c, m->region, std::isfinite(m->ring.spread) ? m->ring.spread : 0.0));
     if (!surrounding) {
       m->reference = reference;
       if (!absolute) {
@@ -489,9 +519,9 @@ void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
   int boundary_vertices = 0;
   double sigma_reference = m.ring.vertices > 0 ? 1.2533 * ring_sigma / std::sqrt(m.ring.vertices) : 0.0;
   const double f = c.options.boundary_fraction;
-  // The peak that sets the level is the mean of the hottest 5 %; the maximum may stand
-  // above it (noise on a plateau, or a profile that never flattens): their difference is
-  // the peak's uncertainty, added to the vertex noise.
+  // The peak that sets the level (RobustPeak) may stand below the maximum (noise on a
+  // plateau, or a profile that never flattens under noise): their difference is the peak's
+  // uncertainty, added to the vertex noise.
   double region_max = -std::numeric_limits<double>::infinity();
   for (int v : m.region) region_max = std::max(region_max, c.field[U(v)]);
   const double sigma_peak_shape = std::isfinite(region_max) ? region_max - m.peak : 0.0;
