@@ -62,6 +62,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("min_distance_m", r.icp.min_distance_m)
       .Number("max_normal_angle_deg", r.icp.max_normal_angle_deg)
       .Number("huber_m", r.icp.huber_m)
+      .Number("noise_reference_depth_m", r.icp.noise_reference_depth_m)
       .Number("min_inlier_fraction", r.icp.min_inlier_fraction)
       .Int("min_inliers", r.icp.min_inliers)
       .Number("max_condition", r.icp.max_condition)
@@ -492,6 +493,10 @@ int RunReconstruct(int argc, char** argv) {
   app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
   app.add_option("--photometric-weight", r.icp.photometric_weight,
                  "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
+  app.add_option("--icp-noise-depth", r.icp.noise_reference_depth_m,
+                 "ICP residuals of a point at depth z count (this / z)x: depth noise grows with distance, m "
+                 "(0: all alike)")
+      ->capture_default_str();
   app.add_option("--raycast-level", r.raycast_level,
                  "track against the model raycast at this pyramid level (0 full, 1 half resolution)")
       ->capture_default_str();

@@ -79,6 +79,7 @@ struct Pass {
   float max_distance_sq = 0;
   float min_normal_cos = 0;
   float huber = 0;
+  float noise_reference_depth = 0;  // m; 0: no depth-dependent weighting
   // Photometric term, when both are set: the live grey levels (row-major like the live map)
   // and the model's (NaN where unknown), and the term's weight (m per grey level).
   float model_from_live_r[9] = {};  // rotation of model_from_world · world_from_live
@@ -161,6 +162,7 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
   std::copy_n(pass.model_from_live_r, 9, MR);
   const float max_distance_sq = pass.max_distance_sq, min_normal_cos = pass.min_normal_cos;
   const float huber = pass.huber, lambda = pass.photometric_weight;
+  const float noise_ref = pass.noise_reference_depth;
   const float* live_intensity = pass.live_intensity;
   const float* model_intensity = pass.model_intensity;
   const float u_max = cam.width - 0.5f, v_max = cam.height - 0.5f;
@@ -237,11 +239,15 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       // dr/dω = p × n_c, dr/dv = n_c. Masked: NaN in rejected lanes becomes 0.
       const Float8 r = Masked8(nm[0] * dx + nm[1] * dy + nm[2] * dz, inlier);
       {
-        const Float8 cx = Masked8(ncx, inlier), cy = Masked8(ncy, inlier),
-                     cz = Masked8(ncz, inlier);
+        // Rows scaled by z_ref / z when the noise grows with depth (1 otherwise; 0 in
+        // rejected lanes, whose z may be 0).
+        const Float8 s = noise_ref > 0 ? Masked8(noise_ref / p[2], inlier) : Masked8(Splat8(1.0f), inlier);
+        const Float8 cx = Masked8(ncx * s, inlier), cy = Masked8(ncy * s, inlier),
+                     cz = Masked8(ncz * s, inlier);
         const Float8 jac[6] = {p[1] * cz - p[2] * cy, p[2] * cx - p[0] * cz,
                                p[0] * cy - p[1] * cx, cx, cy, cz};
-        acc.Add(jac, r, Masked8(HuberWeight8(r, huber), inlier));
+        const Float8 rs = r * s;
+        acc.Add(jac, rs, Masked8(HuberWeight8(rs, huber), inlier));
         sum_r_sq += r * r;
       }
       if (live_intensity == nullptr) continue;
@@ -409,6 +415,8 @@ std::string IcpOptions::Check() const {
   }
   if (!(huber_m > 0) || !std::isfinite(huber_m))
     return Fail("huber_m", huber_m, "> 0 m and finite");
+  if (!(noise_reference_depth_m == 0 || (noise_reference_depth_m >= 0.1 && noise_reference_depth_m <= 10)))
+    return Fail("noise_reference_depth_m", noise_reference_depth_m, "0 (off) or in [0.1, 10] m");
   if (!(min_update_rad >= 0) || !std::isfinite(min_update_rad)) {
     return Fail("min_update_rad", min_update_rad, ">= 0 rad and finite");
   }
@@ -550,6 +558,7 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
     pass.max_distance_sq = static_cast<float>(gate * gate);
     pass.min_normal_cos = min_normal_cos;
     pass.huber = static_cast<float>(options.huber_m);
+    pass.noise_reference_depth = static_cast<float>(options.noise_reference_depth_m);
     // Photometric term: needs grey levels on both sides.
     std::vector<float> model_intensity;
     const cv::Mat& live_intensity = live.levels[l].intensity;

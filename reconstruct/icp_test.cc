@@ -143,6 +143,9 @@ TEST(IcpOptions, CheckNamesTheField) {
   EXPECT_THAT(with([](auto& o) { o.max_normal_angle_deg = 91; }),
               HasSubstr("max_normal_angle_deg"));
   EXPECT_THAT(with([](auto& o) { o.huber_m = NAN; }), HasSubstr("huber_m"));
+  EXPECT_THAT(with([](auto& o) { o.noise_reference_depth_m = 0.05; }), HasSubstr("noise_reference_depth_m"));
+  EXPECT_THAT(with([](auto& o) { o.noise_reference_depth_m = NAN; }), HasSubstr("noise_reference_depth_m"));
+  EXPECT_EQ(with([](auto& o) { o.noise_reference_depth_m = 0; }), "");
   EXPECT_THAT(with([](auto& o) { o.min_update_rad = -1; }), HasSubstr("min_update_rad"));
   EXPECT_THAT(with([](auto& o) { o.min_update_m = -1; }), HasSubstr("min_update_m"));
   EXPECT_THAT(with([](auto& o) { o.min_inlier_fraction = 1.5; }), HasSubstr("min_inlier_fraction"));
@@ -281,8 +284,12 @@ TEST(AlignToModel, OnePassMatchesAPerPixelLoopWithPartialGroups) {
   const core::Rigid3d model_pose = Reference();
   const ModelPyramid model =
       BuildModelPyramid(scene.Map(camera, model_pose), camera, model_pose, 3);
+  // With and without the depth-dependent weights (rows scaled by z_ref / z).
+  for (const double reference_depth_m : {0.0, 1.0}) {
+  SCOPED_TRACE("noise_reference_depth_m " + std::to_string(reference_depth_m));
   IcpOptions options;
   options.iterations = {1, 0, 0};
+  options.noise_reference_depth_m = reference_depth_m;
   const IcpResult result = AlignToModel(live, model, truth, options);
 
   const PointMap& live_map = live.levels[0].map;
@@ -312,11 +319,12 @@ TEST(AlignToModel, OnePassMatchesAPerPixelLoopWithPartialGroups) {
       if (d.squaredNorm() > gate * gate) continue;
       if (n_c.dot(live_map.normals[i].cast<double>()) < min_cos) continue;
       ++inliers;
-      const double r = n_model.dot(d);
+      const double scale = reference_depth_m > 0 ? reference_depth_m / p.z() : 1.0;
+      const double r = scale * n_model.dot(d);
       const double w = std::abs(r) <= options.huber_m ? 1.0 : options.huber_m / std::abs(r);
       Vector6d jac;
       jac << p.cross(n_c), n_c;
-      information += w * jac * jac.transpose();
+      information += w * scale * scale * jac * jac.transpose();
     }
   }
   EXPECT_EQ(result.valid_points, valid);
@@ -325,6 +333,7 @@ TEST(AlignToModel, OnePassMatchesAPerPixelLoopWithPartialGroups) {
   // A pixel exactly at a gate may go either way between float and double.
   EXPECT_NEAR(result.inliers, inliers, 2);
   EXPECT_LT((result.information - information).norm(), 1e-4 * information.norm());
+  }
 }
 
 // A single wall constrains only the motion along its normal and the two tilts: the normal

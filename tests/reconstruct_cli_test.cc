@@ -258,6 +258,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                    " --raycast-interval 0");
   EXPECT_EQ(interval.exit_code, 2) << interval.output;
   EXPECT_NE(interval.output.find("raycast_interval"), std::string::npos) << interval.output;
+  const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                " --icp-noise-depth 0.01");
+  EXPECT_EQ(noise.exit_code, 2) << noise.output;
+  EXPECT_NE(noise.output.find("noise_reference_depth_m"), std::string::npos) << noise.output;
   EXPECT_EQ(Heatwave("reconstruct " + SmoothScan().string()).exit_code, 2);  // no --out
 }
 
