@@ -25,17 +25,19 @@ struct IcpOptions {
   double min_distance_m = 0.01;       // m, in (0, max_distance_m]
   double max_normal_angle_deg = 30;   // degrees, in (0, 90]
   double huber_m = 0.01;              // Huber threshold of point-to-plane residuals, m, > 0
-  // Depth-dependent noise (0: off): a depth sensor's error grows with the distance (a
-  // structured-light or stereo sensor's random error as z², its uncalibrated disparity
-  // distortion likewise), so the point-to-plane residual of a live point at depth z is
-  // divided by z / this before its Huber weight, and its row scaled alike: a point at this
-  // depth keeps weight 1, one at 4 m counts 1/16. Measured on the full-size `equipment`
-  // sweeps (README, Reconstruction): ATE over 3 s 2.28 → 1.70 mm with rig.yaml's depth
-  // correction, 11.1 → 8.5 mm without; over 10 s 11.6 → 10.0 and 55.9 → 15.9 mm. Dividing
-  // by (z / this)², the disparity noise model, did better without the correction (21 mm
-  // over 10 s) but worse with it (17.1 mm): it leaves the far surfaces too little say in the
-  // directions only they constrain. m, 0 or in [0.1, 10].
-  double noise_reference_depth_m = 1.0;
+  // Depth-dependent noise (0: off, the default): a depth sensor's error grows with the
+  // distance, so the point-to-plane residual of a live point at depth z is divided by
+  // z / this before its Huber weight, and its row scaled alike: a point at this depth keeps
+  // weight 1, one at 4 m counts 1/16. Measured (README, Reconstruction): on the full-size
+  // `equipment` sweeps (surfaces at 1–2 m) it helps — ATE over 3 s 2.28 → 1.70 mm with
+  // rig.yaml's depth correction, 11.1 → 8.5 mm without; over 10 s 11.6 → 10.0 and
+  // 55.9 → 15.9 mm — but on the `building` sweep (walls at 3–4 m) it loses the pose, 4 s:
+  // 20.6 → 72.7 mm: every geometric row there shrinks ~10× against the photometric term's and
+  // the Huber threshold grows 3–4×. Hence off by default. Relative to the frame's median
+  // depth instead of a fixed one (tried: 19.2 and 2.19 mm) it was about neutral. Dividing by
+  // (z / this)², the disparity noise law, was worse with the correction (10 s: 17.1 mm).
+  // m, 0 or in [0.1, 10].
+  double noise_reference_depth_m = 0;
   // Stop a level when the update is smaller than this (rad for rotation, m for translation).
   double min_update_rad = 1e-5;
   double min_update_m = 1e-5;

@@ -351,7 +351,8 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   }
   // Far fewer casts than frames: this 160×120 scan's tremor moves a third of its frames
   // beyond the reuse limits (10 mm / 0.5° from the prediction), which cast at once: 13 of
-  // 29 frames cast with ICP's weights alike at all depths, 14 with the depth-dependent ones.
+  // 29 frames cast with ICP's weights alike at all depths (the default), 14 with the
+  // depth-dependent ones (IcpOptions::noise_reference_depth_m 1).
   EXPECT_LT(cast, static_cast<int>(run.frames.size()) * 3 / 5);
   for (const FrameRecord& f : reference.frames) EXPECT_GT(f.raycast_ms, 0) << "frame " << f.index;
   // Same bound as every frame's (10 mm), and within 1 mm of it: a view two frames old holds
