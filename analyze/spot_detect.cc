@@ -313,46 +313,36 @@ double RegionMean(const Context& c, const std::vector<int>& region, const std::v
 // setting the level). On an exact mesh (noise 0) the peak is the maximum whatever the
 // profile: a small lug's field peaks at its centre, where the hottest 5 % of its area
 // (22 mm², the apex vertex and part of the next) averaged 0.06 of the ΔT below the apex and
-// put its half-ΔT boundary 2.9 % too wide in area on the truth mesh. noise_c: one vertex's
-// standard error, K (NoiseOfHottest).
-double RobustPeak(const Context& c, const std::vector<int>& region, double noise_c) {
-  std::vector<std::pair<double, double>> values;
+// put its half-ΔT boundary 2.9 % too wide in area on the truth mesh. One vertex's noise is
+// the median standard error of the fused estimate (temperature_std_c / √temperature_views)
+// over those hottest 5 % where the mesh has them, else `fallback_noise_c` (the
+// surroundings' spread once measured, 0 before), K.
+double RobustPeak(const Context& c, const std::vector<int>& region, double fallback_noise_c) {
+  std::vector<std::pair<double, int>> values;
   double total = 0;
   for (int v : region) {
-    values.emplace_back(c.field[U(v)], c.vertex_area[U(v)]);
+    values.emplace_back(c.field[U(v)], v);
     total += c.vertex_area[U(v)];
   }
   std::sort(values.begin(), values.end(), std::greater<>());
+  const bool has_errors = !c.mesh.std_c.empty() && !c.mesh.views.empty();
   double sum = 0, weighted = 0;
-  for (const auto& [value, area] : values) {
-    sum += area;
-    weighted += value * area;
+  std::vector<double> errors;
+  for (const auto& [value, v] : values) {
+    sum += c.vertex_area[U(v)];
+    weighted += value * c.vertex_area[U(v)];
+    if (has_errors && std::isfinite(c.mesh.std_c[U(v)]) && c.mesh.views[U(v)] >= 1) {
+      errors.push_back(c.mesh.std_c[U(v)] / std::sqrt(c.mesh.views[U(v)]));
+    }
     if (sum >= 0.05 * total) break;
   }
   const double top = sum > 0 ? weighted / sum : values.front().first;
-  return std::max(top, values.front().first - 2 * noise_c);
-}
-
-// One vertex's noise at the region's top, K: the median standard error of the fused
-// estimate (temperature_std_c / √temperature_views) over the hottest 5 % of the region's
-// vertices where the mesh has them, else `fallback_c` (the surroundings' spread, once
-// measured; 0 before).
-double NoiseOfHottest(const Context& c, const std::vector<int>& region, double fallback_c) {
-  if (c.mesh.std_c.empty() || c.mesh.views.empty() || region.empty()) return fallback_c;
-  std::vector<std::pair<double, int>> by_value;
-  for (int v : region) by_value.emplace_back(c.field[U(v)], v);
-  const size_t n = std::max<size_t>(1, by_value.size() / 20);
-  std::partial_sort(by_value.begin(), by_value.begin() + static_cast<std::ptrdiff_t>(n), by_value.end(),
-                    std::greater<>());
-  std::vector<double> errors;
-  for (size_t i = 0; i < n; ++i) {
-    const int v = by_value[i].second;
-    const double sd = c.mesh.std_c[U(v)], views = c.mesh.views[U(v)];
-    if (std::isfinite(sd) && views >= 1) errors.push_back(sd / std::sqrt(views));
+  double noise_c = fallback_noise_c;
+  if (!errors.empty()) {
+    std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(errors.size() / 2), errors.end());
+    noise_c = errors[errors.size() / 2];
   }
-  if (errors.empty()) return fallback_c;
-  std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(errors.size() / 2), errors.end());
-  return errors[errors.size() / 2];
+  return std::max(top, values.front().first - 2 * noise_c);
 }
 
 // Measures one candidate of one kind (the field oriented so that the spot is a maximum).
@@ -379,8 +369,8 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     for (int v : m->region) (*in_region)[U(v)] = 0;
     // The level: half way (boundary_fraction) from the reference to the peak; the peak is
     // the robust one of the region at the previous level (the seed alone at first).
-    const double noise = NoiseOfHottest(c, m->region, std::isfinite(m->ring.spread) ? m->ring.spread : 0.0);
-    const double peak = m->region.empty() ? c.field[U(seed)] : RobustPeak(c, m->region, noise);
+    const double ring_noise = std::isfinite(m->ring.spread) ? m->ring.spread : 0.0;
+    const double peak = m->region.empty() ? c.field[U(seed)] : RobustPeak(c, m->region, ring_noise);
     const double level = absolute ? absolute_level : reference + o.boundary_fraction * (peak - reference);
     // Against ambient the ΔT is known at once; the local background of a candidate (the
     // median within background_radius_m) is only a start: inside a spot wider than that
@@ -404,8 +394,7 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
     m->iso = ClipToLevel(c.mesh, c.field, faces, level, true);
     m->level = level;
-    m->peak = RobustPeak(c, m->region,
-                         NoiseOfHottest(c, m->region, std::isfinite(m->ring.spread) ? m->ring.spread : 0.0));
+    m->peak = RobustPeak(c, m->region, ring_noise);
     if (!surrounding) {
       m->reference = reference;
       if (!absolute) {
