@@ -542,6 +542,13 @@ int RunReconstruct(int argc, char** argv) {
                  "thermal radiance lost at the image corners after the camera's own calibration "
                  "(pixels read L (1 - v r^2)), corrected before fusion; 0: none")
       ->capture_default_str();
+  std::string scene_correction = t.scene_correction.frame_offset
+                                     ? (t.scene_correction.pixel_offset ? "both" : "frame")
+                                     : (t.scene_correction.pixel_offset ? "pixel" : "off");
+  app.add_option("--thermal-scene-correction", scene_correction,
+                 "correct the thermal camera's offsets against the model as it grows: frame (each frame's "
+                 "common offset: drift, shutter-event jumps), pixel (fixed pattern, column noise), both, off")
+      ->capture_default_str();
   app.add_option("--emissivity", o.emissivity_path,
                  "emissivity file: regions of other emissivity / reflected temperature (README)");
   app.add_flag("--emissivity-from-truth", o.emissivity_from_truth,
@@ -563,6 +570,12 @@ int RunReconstruct(int argc, char** argv) {
       throw UsageError("--thermal-method: must be latest, mean, capped-mean, online or offline, got '" + method + "'");
     }
     t.method = *parsed_method;
+    if (scene_correction != "off" && scene_correction != "frame" && scene_correction != "pixel" &&
+        scene_correction != "both") {
+      throw UsageError("--thermal-scene-correction: must be off, frame, pixel or both, got '" + scene_correction + "'");
+    }
+    t.scene_correction.frame_offset = scene_correction == "frame" || scene_correction == "both";
+    t.scene_correction.pixel_offset = scene_correction == "pixel" || scene_correction == "both";
     ThrowIfInvalid(o.Check());
     const ReconstructCommandResult result = RunReconstruction(o, common.quiet);
     if (!common.quiet) std::cout << FormatReconstructSummary(result) << std::flush;

@@ -52,6 +52,11 @@ struct ThermalCommandResult {
   int64_t offline_rejected = 0;
   double seconds = 0, load_seconds = 0, finish_seconds = 0;
   double raycast_ms = 0, fuse_ms = 0;  // mean per fused frame
+  // Scene-based offset correction: on at all, fused frames with their own offset estimate,
+  // range of the offsets removed (K), RMS of the pixel offsets at the end (K).
+  bool scene_correction = false;
+  int offset_estimated = 0;
+  double offset_min_k = 0, offset_max_k = 0, pixel_offset_rms_k = 0;
   int vertices_observed = 0;           // model vertices with a temperature
   std::string method;                  // the estimate written to temperature_c
   std::string emissivity;              // where emissivity came from

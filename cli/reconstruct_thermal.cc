@@ -114,8 +114,13 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
     if (f.status == ThermalFrameStatus::kFused) {
       r.raycast_ms += f.raycast_ms;
       r.fuse_ms += f.fuse_ms;
+      r.offset_estimated += f.offset_estimated;
+      r.offset_min_k = std::min(r.offset_min_k, f.offset_correction_k);
+      r.offset_max_k = std::max(r.offset_max_k, f.offset_correction_k);
+      r.pixel_offset_rms_k = f.pixel_offset_rms_k;
     }
   }
+  r.scene_correction = fusion.options().scene_correction.frame_offset || fusion.options().scene_correction.pixel_offset;
   if (r.fused > 0) {
     r.raycast_ms /= r.fused;
     r.fuse_ms /= r.fused;
@@ -173,6 +178,16 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("drift_onset_s", c.drift_onset_s)
       .Number("drift_time_s", c.drift_time_s);
   offline.Number("outlier_sigmas", o.offline.outlier_sigmas).Number("min_sigma_k", o.offline.min_sigma_k);
+  const reconstruct::SceneCorrectionOptions& sc = o.scene_correction;
+  JsonObject scene;
+  scene.Bool("frame_offset", sc.frame_offset)
+      .Bool("pixel_offset", sc.pixel_offset)
+      .Int("min_reference_views", sc.min_reference_views)
+      .Number("max_reference_std_k", sc.max_reference_std_k)
+      .Number("max_residual_k", sc.max_residual_k)
+      .Int("min_reference_rays", sc.min_reference_rays)
+      .Number("pixel_rate", sc.pixel_rate)
+      .Number("max_pixel_offset_k", sc.max_pixel_offset_k);
   settings.String("method", reconstruct::ThermalMethodName(o.method))
       .String("emissivity", r.emissivity)
       .Number("recency_bias", o.recency_bias)
@@ -183,6 +198,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
       .Int("max_views_per_region", o.max_views_per_region)
+      .Add("scene_correction", scene.str())
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
   summary.Int("frames", r.frames)
@@ -201,6 +217,10 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Int("observations_dropped", static_cast<int64_t>(r.observations_dropped))
       .Int("offline_rejected", r.offline_rejected)
       .Int("vertices_with_temperature", r.vertices_observed)
+      .Int("offset_estimated_frames", r.offset_estimated)
+      .Number("offset_min_k", r.offset_min_k)
+      .Number("offset_max_k", r.offset_max_k)
+      .Number("pixel_offset_rms_k", r.pixel_offset_rms_k)
       .Int("memory_bytes", static_cast<int64_t>(r.memory_bytes));
   timings.Number("fusion_s", r.seconds)
       .Number("load_s", r.load_seconds)
@@ -255,6 +275,10 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Int("no_surface_temperature", f.no_surface_temperature)
         .Number("mean_confidence", f.mean_confidence)
         .Int("regions_updated", f.regions_updated)
+        .Int("reference_rays", f.reference_rays)
+        .Bool("offset_estimated", f.offset_estimated)
+        .Number("offset_correction_k", f.offset_correction_k)
+        .Number("pixel_offset_rms_k", f.pixel_offset_rms_k)
         .Number("raycast_ms", f.raycast_ms)
         .Number("fuse_ms", f.fuse_ms);
     frames.push_back(j.str());
@@ -275,6 +299,12 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
     out += core::StringPrintf(" (%zu least confident views dropped)", r.observations_dropped);
   }
   out += "; emissivity: " + r.emissivity + "\n";
+  if (r.scene_correction) {
+    out += core::StringPrintf(
+        "           scene correction: %d frames with their own offset estimate, offsets %+.2f to %+.2f K, "
+        "pixel offsets %.3f K RMS\n",
+        r.offset_estimated, r.offset_min_k, r.offset_max_k, r.pixel_offset_rms_k);
+  }
   if (!r.evaluation.empty()) {
     out += "           vs truth/scene.ply (K)   all: RMSE    p95   bias | uniform: RMSE    p95   bias | "
            "camera gain/offset removed: RMSE    p95 | emissivity < 0.5: RMSE   bias\n";

@@ -31,6 +31,7 @@ std::string ThermalFusionOptions::Check() const {
   using core::InRange;
   if (std::string e = confidence.Check(); !e.empty()) return "confidence." + e;
   if (std::string e = offline.Check(); !e.empty()) return "offline." + e;
+  if (std::string e = scene_correction.Check(); !e.empty()) return "scene_correction." + e;
   if (!InRange(recency_bias, 0, 1)) return OptionFail("recency_bias", recency_bias, "in [0, 1]");
   if (!(capped_mean_max_weight >= 1) || !std::isfinite(capped_mean_max_weight)) {
     return OptionFail("capped_mean_max_weight", capped_mean_max_weight, "finite and >= 1");
@@ -63,7 +64,7 @@ std::string ThermalFrameStatusName(ThermalFrameStatus status) {
 }
 
 
-const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
                                                        const core::Rigid3d& world_from_thermal,
                                                        const Eigen::Vector3d& linear_velocity_mps,
                                                        const Eigen::Vector3d& angular_velocity_radps, double operating,
@@ -178,7 +179,8 @@ const std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, cons
         const double along_m = across_m / std::max(cos_angle, 0.1);
         part.rays.push_back(Ray{map.points[i], (along * along_m).cast<float>(), (side * across_m).cast<float>(),
                                 static_cast<float>(confidence), static_cast<float>(surface),
-                                static_cast<float>(apparent)});
+                                static_cast<float>(apparent), static_cast<float>(emissivity_at_angle),
+                                static_cast<int32_t>(i)});
         part.confidence_sum += confidence;
       }
     }
@@ -358,8 +360,10 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
 
   start = std::chrono::steady_clock::now();
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
-  const std::vector<Ray>& fused = m.ShadeRays(map, image, world_from_thermal, linear_velocity_mps,
-                                             angular_velocity_radps, operating, record);
+  const cv::Mat corrected = m.scene_correction.CorrectPixels(image);
+  std::vector<Ray>& fused = m.ShadeRays(map, corrected, world_from_thermal, linear_velocity_mps,
+                                       angular_velocity_radps, operating, record);
+  if (m.scene_correction.enabled()) m.CorrectFrame(fused, record);
   m.Splat(fused, record);
   record.fuse_ms = Ms(start);
   record.status = record.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;

@@ -29,6 +29,7 @@
 #include "reconstruct/emissivity_map.h"
 #include "reconstruct/raycast.h"
 #include "reconstruct/thermal_confidence.h"
+#include "reconstruct/thermal_scene_correction.h"
 #include "reconstruct/thermal_update.h"
 #include "reconstruct/tsdf_volume.h"
 
@@ -71,6 +72,9 @@ struct ThermalFusionOptions {
   // temperature; uncorrected, it biases every view by where in the image it saw a surface.
   // 0: none (the camera's calibration removed it); the calibration bench measures it. [0, 1).
   double vignetting = 0;
+  // Scene-based correction of the camera's frame and pixel offsets against the model
+  // (thermal_scene_correction.h), applied to every frame before its rays are fused.
+  SceneCorrectionOptions scene_correction;
   // The estimate written to temperature_c / temperature_apparent_c.
   ThermalMethod method = ThermalMethod::kOffline;
   // Keep the per-frame region observations for the offline estimate (16 bytes each, 2–5 MB
@@ -120,6 +124,13 @@ struct ThermalFrameRecord {
                                    // the reflection alone), core::SurfaceFromApparent
   double mean_confidence = 0;    // over fused rays
   int regions_updated = 0;
+  // Scene-based correction (ThermalFusionOptions::scene_correction): rays that met a
+  // reference region within max_residual_k, whether they sufficed for this frame's own
+  // offset, the offset removed (K), and the RMS of the pixel offsets after the frame (K).
+  int reference_rays = 0;
+  bool offset_estimated = false;
+  double offset_correction_k = 0;
+  double pixel_offset_rms_k = 0;
   double raycast_ms = 0, fuse_ms = 0;
 };
 

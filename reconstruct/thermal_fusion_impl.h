@@ -60,6 +60,8 @@ struct Ray {
   Eigen::Vector3f point_in_world;
   Eigen::Vector3f footprint_u, footprint_v;
   float confidence, surface_c, apparent_c;
+  float emissivity;  // at the viewing angle
+  int32_t pixel;     // y · width + x
 };
 
 // A growable array whose elements never move: chunks of 2^kShift value-initialised
@@ -135,6 +137,8 @@ struct ThermalFusion::Impl {
   std::vector<float> pixel_angle_rad;        // each pixel's angular size (depth-edge test)
   int num_rays = 0;                          // pixels with a ray through the lens model
   std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
+  SceneCorrection scene_correction;
+  std::vector<SceneResidual> residual_scratch;
   float voxel_m = 0;
 
   // Regions: blocks of kBlockVoxels slots (region index or -1), keyed like the TSDF's.
@@ -164,7 +168,7 @@ struct ThermalFusion::Impl {
   Impl(const core::Rig& r, const ThermalFusionOptions& o, EmissivityMap e, std::vector<double> ffc)
       : rig(r), options(o), emissivity(std::move(e)), ffc_timestamps_s(std::move(ffc)),
         band(r.thermal_settings->spectral_band_um[0], r.thermal_settings->spectral_band_um[1]),
-        rays(*r.thermal) {}
+        rays(*r.thermal), scene_correction(o.scene_correction, r.thermal->width, r.thermal->height) {}
 
   // Region of voxel (i, j, k); creates it when `create`. -1 when absent (or out of range).
   int32_t RegionOf(int i, int j, int k, bool create, uint64_t& cached_key, int32_t& cached_block) {
@@ -224,11 +228,15 @@ struct ThermalFusion::Impl {
 
   // Computes the rays of one frame (parallel); returns the fused ones (valid until the
   // next call).
-  const std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+  std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
                                     const core::Rigid3d& world_from_thermal,
                                     const Eigen::Vector3d& linear_velocity_mps,
                                     const Eigen::Vector3d& angular_velocity_radps, double operating,
                                     ThermalFrameRecord& record);
+  // Scene-based correction of one frame's rays (ThermalFusionOptions::scene_correction):
+  // their residuals against the reference regions update the estimates, and the frame's
+  // offset is taken off every ray (its surface temperature linearised: δ/ε).
+  void CorrectFrame(std::vector<Ray>& fused, ThermalFrameRecord& record);
   void Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record);
   // Applies every update rule to region r from its frame sum (then zeroed); appends its
   // observation to frame_records when observations are kept. True when the region now has

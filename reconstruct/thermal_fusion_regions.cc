@@ -13,6 +13,41 @@
 
 namespace hw::reconstruct {
 
+void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameRecord& record) {
+  const SceneCorrectionOptions& o = options.scene_correction;
+  // Residuals against the regions the earlier frames made references: enough views, and
+  // views that agree (a temperature edge reads differently with every sub-pixel shift).
+  std::vector<SceneResidual>& residuals = residual_scratch;
+  residuals.clear();
+  const float max_variance = static_cast<float>(o.max_reference_std_k * o.max_reference_std_k);
+  uint64_t cached_key = ~uint64_t{0};
+  int32_t cached_block = -1;
+  for (const Ray& ray : fused) {
+    const Eigen::Vector3f g = ray.point_in_world / voxel_m;
+    const int32_t r = FindRegion(FloorToInt(g.x() + 0.5f), FloorToInt(g.y() + 0.5f), FloorToInt(g.z() + 0.5f),
+                                 cached_key, cached_block);
+    if (r < 0) continue;
+    const Region& region = regions[r];
+    if (region.views < o.min_reference_views) continue;
+    if (region.m2_surface > max_variance * static_cast<float>(region.views - 1)) continue;
+    // In apparent kelvin: a reading δ higher moves the surface estimate by δ / ε (the band
+    // radiance's slope at the two temperatures taken as equal: within 2 % for a surface
+    // 10 K off room temperature).
+    residuals.push_back(SceneResidual{ray.pixel, (ray.surface_c - region.mean_surface_c) * ray.emissivity});
+  }
+  const SceneCorrectionUpdate u = scene_correction.Update(residuals);
+  record.reference_rays = u.reference_rays;
+  record.offset_estimated = u.frame_estimated;
+  record.offset_correction_k = u.frame_offset_k;
+  record.pixel_offset_rms_k = u.pixel_offset_rms_k;
+  if (u.frame_offset_k == 0) return;
+  const float offset = static_cast<float>(u.frame_offset_k);
+  for (Ray& ray : fused) {
+    ray.apparent_c -= offset;
+    ray.surface_c -= offset / ray.emissivity;
+  }
+}
+
 void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record) {
   // Four passes, so that the hash lookups, the accumulation and the update rules run on
   // every thread while the result stays exactly that of one thread taking the splats in ray

@@ -1,0 +1,105 @@
+#include "reconstruct/thermal_scene_correction.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+
+#include "core/option_check.h"
+
+namespace hw::reconstruct {
+
+std::string SceneCorrectionOptions::Check() const {
+  using core::OptionFail;
+  auto positive = [](double v) { return v > 0 && std::isfinite(v); };
+  if (min_reference_views < 1) return OptionFail("min_reference_views", min_reference_views, ">= 1");
+  if (!positive(max_reference_std_k)) return OptionFail("max_reference_std_k", max_reference_std_k, "finite and > 0 K");
+  if (!positive(max_residual_k)) return OptionFail("max_residual_k", max_residual_k, "finite and > 0 K");
+  if (min_reference_rays < 1) return OptionFail("min_reference_rays", min_reference_rays, ">= 1");
+  if (!(pixel_rate > 0 && pixel_rate <= 1)) return OptionFail("pixel_rate", pixel_rate, "in (0, 1]");
+  if (!positive(max_pixel_offset_k)) return OptionFail("max_pixel_offset_k", max_pixel_offset_k, "finite and > 0 K");
+  return "";
+}
+
+SceneCorrection::SceneCorrection(const SceneCorrectionOptions& options, int width, int height)
+    : options_(options), pixel_offset_k_(height, width, CV_32FC1, cv::Scalar(0)) {
+  assert(options.Check().empty());
+  assert(width > 0 && height > 0);
+}
+
+cv::Mat SceneCorrection::CorrectPixels(const cv::Mat& apparent_c) const {
+  assert(apparent_c.type() == CV_32FC1 && apparent_c.size() == pixel_offset_k_.size());
+  if (!options_.pixel_offset) return apparent_c;
+  return apparent_c - pixel_offset_k_;
+}
+
+namespace {
+
+// Median of v (reordered); v not empty.
+float Median(std::vector<float>& v) {
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  float m = v[mid];
+  if (v.size() % 2 == 0) m = 0.5f * (m + *std::max_element(v.begin(), v.begin() + mid));
+  return m;
+}
+
+}  // namespace
+
+SceneCorrectionUpdate SceneCorrection::Update(std::vector<SceneResidual>& residuals) {
+  SceneCorrectionUpdate u;
+  const float max_residual = static_cast<float>(options_.max_residual_k);
+  // The frame's offset: the median of the residuals near the median of all of them (a jump
+  // at a shutter event moves them all; a reflection moves a few far).
+  float centre = 0;
+  if (!residuals.empty()) {
+    scratch_.resize(residuals.size());
+    for (size_t i = 0; i < residuals.size(); ++i) scratch_[i] = residuals[i].residual_k;
+    centre = Median(scratch_);
+  }
+  auto is_near = [&](const SceneResidual& r) { return std::abs(r.residual_k - centre) <= max_residual; };
+  const auto kept_end = std::partition(residuals.begin(), residuals.end(), is_near);
+  const size_t kept = static_cast<size_t>(kept_end - residuals.begin());
+  u.reference_rays = static_cast<int>(kept);
+  if (options_.frame_offset && kept >= static_cast<size_t>(options_.min_reference_rays)) {
+    scratch_.resize(kept);
+    for (size_t i = 0; i < kept; ++i) scratch_[i] = residuals[i].residual_k;
+    frame_offset_k_ = Median(scratch_);
+    u.frame_estimated = true;
+  }
+  u.frame_offset_k = options_.frame_offset ? frame_offset_k_ : 0.0;
+
+  if (options_.pixel_offset && kept >= static_cast<size_t>(options_.min_reference_rays)) {
+    // What each pixel keeps beyond the frame's offset: the frame offset estimated here, or
+    // (frame_offset off) the residuals' own median, so that a common drift never leaks into
+    // the pixels.
+    float common = static_cast<float>(u.frame_offset_k);
+    if (!options_.frame_offset) {
+      scratch_.resize(kept);
+      for (size_t i = 0; i < kept; ++i) scratch_[i] = residuals[i].residual_k;
+      common = Median(scratch_);
+    }
+    const float rate = static_cast<float>(options_.pixel_rate);
+    const float cap = static_cast<float>(options_.max_pixel_offset_k);
+    float* b = pixel_offset_k_.ptr<float>();
+    for (size_t i = 0; i < kept; ++i) {
+      const float excess = residuals[i].residual_k - common;
+      if (std::abs(excess) > max_residual) continue;
+      float& bp = b[residuals[i].pixel];
+      bp = std::clamp(bp + rate * excess, -cap, cap);
+    }
+    // Re-centred: a common part of the pixel estimates is the frame offset's to carry.
+    const double mean = cv::mean(pixel_offset_k_)[0];
+    pixel_offset_k_ -= mean;
+  }
+  if (options_.pixel_offset) {
+    double sum2 = 0;
+    const float* b = pixel_offset_k_.ptr<float>();
+    for (size_t i = 0; i < pixel_offset_k_.total(); ++i) sum2 += static_cast<double>(b[i]) * static_cast<double>(b[i]);
+    u.pixel_offset_rms_k = std::sqrt(sum2 / static_cast<double>(pixel_offset_k_.total()));
+  }
+  return u;
+}
+
+}  // namespace hw::reconstruct
