@@ -548,6 +548,7 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--thermal-scene-correction", scene_correction,
                  "correct the thermal camera's offsets against the model as it grows: frame (each frame's "
                  "common offset: drift, shutter-event jumps), pixel (fixed pattern, column noise), both, off")
+      ->check(CLI::IsMember({"off", "frame", "pixel", "both"}))
       ->capture_default_str();
   app.add_option("--emissivity", o.emissivity_path,
                  "emissivity file: regions of other emissivity / reflected temperature (README)");
@@ -570,10 +571,6 @@ int RunReconstruct(int argc, char** argv) {
       throw UsageError("--thermal-method: must be latest, mean, capped-mean, online or offline, got '" + method + "'");
     }
     t.method = *parsed_method;
-    if (scene_correction != "off" && scene_correction != "frame" && scene_correction != "pixel" &&
-        scene_correction != "both") {
-      throw UsageError("--thermal-scene-correction: must be off, frame, pixel or both, got '" + scene_correction + "'");
-    }
     t.scene_correction.frame_offset = scene_correction == "frame" || scene_correction == "both";
     t.scene_correction.pixel_offset = scene_correction == "pixel" || scene_correction == "both";
     ThrowIfInvalid(o.Check());

@@ -62,43 +62,36 @@ SceneCorrectionUpdate SceneCorrection::Update(std::vector<SceneResidual>& residu
   const auto kept_end = std::partition(residuals.begin(), residuals.end(), is_near);
   const size_t kept = static_cast<size_t>(kept_end - residuals.begin());
   u.reference_rays = static_cast<int>(kept);
-  if (options_.frame_offset && kept >= static_cast<size_t>(options_.min_reference_rays)) {
+  const bool enough = kept >= static_cast<size_t>(options_.min_reference_rays);
+  // Their median: the frame's offset, and what each pixel's residual is measured from (with
+  // frame_offset off too, so that a common drift never leaks into the pixels).
+  float kept_median = 0;
+  if (enough) {
     scratch_.resize(kept);
     for (size_t i = 0; i < kept; ++i) scratch_[i] = residuals[i].residual_k;
-    frame_offset_k_ = Median(scratch_);
+    kept_median = Median(scratch_);
+  }
+  if (options_.frame_offset && enough) {
+    frame_offset_k_ = kept_median;
     u.frame_estimated = true;
   }
   u.frame_offset_k = options_.frame_offset ? frame_offset_k_ : 0.0;
+  if (!options_.pixel_offset) return u;
 
-  if (options_.pixel_offset && kept >= static_cast<size_t>(options_.min_reference_rays)) {
-    // What each pixel keeps beyond the frame's offset: the frame offset estimated here, or
-    // (frame_offset off) the residuals' own median, so that a common drift never leaks into
-    // the pixels.
-    float common = static_cast<float>(u.frame_offset_k);
-    if (!options_.frame_offset) {
-      scratch_.resize(kept);
-      for (size_t i = 0; i < kept; ++i) scratch_[i] = residuals[i].residual_k;
-      common = Median(scratch_);
-    }
+  if (enough) {
     const float rate = static_cast<float>(options_.pixel_rate);
     const float cap = static_cast<float>(options_.max_pixel_offset_k);
     float* b = pixel_offset_k_.ptr<float>();
     for (size_t i = 0; i < kept; ++i) {
-      const float excess = residuals[i].residual_k - common;
+      const float excess = residuals[i].residual_k - kept_median;
       if (std::abs(excess) > max_residual) continue;
       float& bp = b[residuals[i].pixel];
       bp = std::clamp(bp + rate * excess, -cap, cap);
     }
     // Re-centred: a common part of the pixel estimates is the frame offset's to carry.
-    const double mean = cv::mean(pixel_offset_k_)[0];
-    pixel_offset_k_ -= mean;
+    pixel_offset_k_ -= cv::mean(pixel_offset_k_)[0];
   }
-  if (options_.pixel_offset) {
-    double sum2 = 0;
-    const float* b = pixel_offset_k_.ptr<float>();
-    for (size_t i = 0; i < pixel_offset_k_.total(); ++i) sum2 += static_cast<double>(b[i]) * static_cast<double>(b[i]);
-    u.pixel_offset_rms_k = std::sqrt(sum2 / static_cast<double>(pixel_offset_k_.total()));
-  }
+  u.pixel_offset_rms_k = cv::norm(pixel_offset_k_, cv::NORM_L2) / std::sqrt(static_cast<double>(pixel_offset_k_.total()));
   return u;
 }
 

@@ -262,6 +262,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
   EXPECT_NE(noise.output.find("noise_reference_depth_m"), std::string::npos) << noise.output;
+  const Result scene = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                " --thermal-scene-correction sometimes");
+  EXPECT_EQ(scene.exit_code, 2) << scene.output;
+  EXPECT_NE(scene.output.find("--thermal-scene-correction"), std::string::npos) << scene.output;
   EXPECT_EQ(Heatwave("reconstruct " + SmoothScan().string()).exit_code, 2);  // no --out
 }
 
