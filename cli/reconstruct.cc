@@ -546,8 +546,9 @@ int RunReconstruct(int argc, char** argv) {
                                      ? (t.scene_correction.pixel_offset ? "both" : "frame")
                                      : (t.scene_correction.pixel_offset ? "pixel" : "off");
   app.add_option("--thermal-scene-correction", scene_correction,
-                 "correct the thermal camera's offsets against the model as it grows: frame (each frame's "
-                 "common offset: drift, shutter-event jumps), pixel (fixed pattern, column noise), both, off")
+                 "correct the thermal camera's offsets against the model as it grows: frame (the jump of the "
+                 "common offset at each shutter event), pixel (fixed pattern, column noise, vignetting left "
+                 "over), both, off")
       ->check(CLI::IsMember({"off", "frame", "pixel", "both"}))
       ->capture_default_str();
   app.add_option("--emissivity", o.emissivity_path,

@@ -182,6 +182,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
   JsonObject scene;
   scene.Bool("frame_offset", sc.frame_offset)
       .Bool("pixel_offset", sc.pixel_offset)
+      .Int("max_pair_shift_px", sc.max_pair_shift_px)
       .Int("min_reference_views", sc.min_reference_views)
       .Number("max_reference_std_k", sc.max_reference_std_k)
       .Number("max_residual_k", sc.max_residual_k)
@@ -275,6 +276,8 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Int("no_surface_temperature", f.no_surface_temperature)
         .Number("mean_confidence", f.mean_confidence)
         .Int("regions_updated", f.regions_updated)
+        .Int("pair_rays", f.pair_rays)
+        .Int("pair_shift_px", f.pair_shift_px)
         .Int("reference_rays", f.reference_rays)
         .Bool("offset_estimated", f.offset_estimated)
         .Number("offset_correction_k", f.offset_correction_k)
@@ -301,7 +304,7 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
   out += "; emissivity: " + r.emissivity + "\n";
   if (r.scene_correction) {
     out += core::StringPrintf(
-        "           scene correction: %d frames with their own offset estimate, offsets %+.2f to %+.2f K, "
+        "           scene correction: offset measured on %d frames (once per shutter event), offsets %+.2f to %+.2f K, "
         "pixel offsets %.3f K RMS\n",
         r.offset_estimated, r.offset_min_k, r.offset_max_k, r.pixel_offset_rms_k);
   }

@@ -306,6 +306,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   m.previous_image = image.clone();
   if (frozen) {
     record.status = ThermalFrameStatus::kFrozen;
+    m.last_frozen_s = frame.timestamp_s;  // a shutter event, listed in ffc.txt or not
     return record;
   }
 

@@ -124,9 +124,13 @@ struct ThermalFrameRecord {
                                    // the reflection alone), core::SurfaceFromApparent
   double mean_confidence = 0;    // over fused rays
   int regions_updated = 0;
-  // Scene-based correction (ThermalFusionOptions::scene_correction): rays that met a
-  // reference region within max_residual_k, whether they sufficed for this frame's own
-  // offset, the offset removed (K), and the RMS of the pixel offsets after the frame (K).
+  // Scene-based correction (ThermalFusionOptions::scene_correction): rays paired with their
+  // region's latest view by a near-same pixel (the frame offset's), rays that met a reference
+  // region (the pixel offsets'), each within max_residual_k, whether the pairs sufficed for
+  // this frame's own offset, the offset removed (K), and the RMS of the pixel offsets after
+  // the frame (K).
+  int pair_rays = 0;
+  int pair_shift_px = -1;        // the largest pixel shift of the pairs used; -1: not measured
   int reference_rays = 0;
   bool offset_estimated = false;
   double offset_correction_k = 0;

@@ -28,6 +28,9 @@ inline constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 struct Region {
   // Latest observation.
   float latest_surface_c = kNaN, latest_apparent_c = kNaN, latest_confidence = 0;
+  // ... which fused frame (Impl::fused_frames) and pixel (y · width + x, the splat of most
+  // weight) it came from: the scene correction pairs it with the next frame's rays.
+  int32_t latest_frame = -1, latest_pixel = -1;
   // Plain mean (Welford, so that the spread of tens of views at ~300 K stays exact in float).
   uint16_t views = 0;
   float mean_surface_c = 0, mean_apparent_c = 0, mean_confidence = 0, m2_surface = 0;
@@ -51,6 +54,8 @@ struct Record {
 // frame: several rays of one frame are one view, not several.
 struct FrameSum {
   float weight = 0, weight_confidence = 0, surface = 0, apparent = 0;
+  float best = 0;       // largest splat weight (share · confidence) so far
+  int32_t pixel = -1;   // its ray's pixel
 };
 
 // A fused ray, ready to splat: its hit and the half-axes of its pixel's footprint on the
@@ -138,7 +143,14 @@ struct ThermalFusion::Impl {
   int num_rays = 0;                          // pixels with a ray through the lens model
   std::vector<float> vignetting_gain;        // 1 − v·r² per pixel; empty without vignetting
   SceneCorrection scene_correction;
-  std::vector<SceneResidual> residual_scratch;
+  std::vector<SceneResidual> residual_scratch, temporal_scratch;
+  int32_t fused_frames = 0;  // frames splatted so far
+  double last_frozen_s = -std::numeric_limits<double>::infinity();  // thermal clock
+  // The latest shutter event seen by CorrectFrame (thermal clock), the first fused frame after
+  // it, and whether its offset has been measured.
+  double event_time_s = -std::numeric_limits<double>::infinity();
+  int32_t event_frame = 0;
+  bool event_measured = false;
   float voxel_m = 0;
 
   // Regions: blocks of kBlockVoxels slots (region index or -1), keyed like the TSDF's.

@@ -15,11 +15,33 @@ namespace hw::reconstruct {
 
 void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameRecord& record) {
   const SceneCorrectionOptions& o = options.scene_correction;
+  // The latest shutter event (ffc.txt, or a frozen frame: the closure). Its offset is measured
+  // once, on the first frame fused within the window after it with enough pairs, against the
+  // views taken before it (views after it, fused before the measurement, carry the new offset
+  // uncorrected): once, because every measurement stands on views that earlier ones corrected,
+  // so that a bias of one is carried on — measured in every frame, it accumulates.
+  const double since_ffc = record.time_since_ffc_s;
+  double event_s = std::isfinite(since_ffc) ? record.timestamp_s - since_ffc : -std::numeric_limits<double>::infinity();
+  if (last_frozen_s <= record.timestamp_s) event_s = std::max(event_s, last_frozen_s);
+  if (std::isfinite(event_s) && event_s != event_time_s) {
+    event_time_s = event_s;
+    event_frame = fused_frames;  // the views before this frame are the event's references
+    event_measured = false;
+  }
+  // The window: c5 rejects the frames after an event for ffc_settle_s and weighs them down for
+  // ffc_ramp_s; event_window_s more to find a frame with enough pairs.
+  const double window_s = o.event_window_s + options.confidence.ffc_settle_s + options.confidence.ffc_ramp_s;
+  const bool measure = o.frame_offset && std::isfinite(event_time_s) && !event_measured &&
+                       record.timestamp_s - event_time_s <= window_s;
   // Residuals against the regions the earlier frames made references: enough views, and
   // views that agree (a temperature edge reads differently with every sub-pixel shift).
   std::vector<SceneResidual>& residuals = residual_scratch;
+  std::vector<SceneResidual>& pairs = temporal_scratch;
   residuals.clear();
+  pairs.clear();
   const float max_variance = static_cast<float>(o.max_reference_std_k * o.max_reference_std_k);
+  const int width = rays.width();
+  const int max_shift = o.max_pair_shift_px;
   uint64_t cached_key = ~uint64_t{0};
   int32_t cached_block = -1;
   for (const Ray& ray : fused) {
@@ -28,14 +50,26 @@ void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameReco
                                  cached_key, cached_block);
     if (r < 0) continue;
     const Region& region = regions[r];
+    if (region.views < 2 || region.m2_surface > max_variance * static_cast<float>(region.views - 1)) continue;
+    // Pairs: this ray and the region's latest view before the event, taken by (almost) the
+    // same pixel, differ by the offset's jump plus the offset removed from that view, whatever
+    // the optics do at that pixel (vignetting, narcissus, fixed pattern), which a comparison
+    // with the region's mean over many pixels would carry into the offset.
+    if (measure && region.latest_frame >= 0 && region.latest_frame < event_frame) {
+      const int shift = std::max(std::abs(region.latest_pixel % width - ray.pixel % width),
+                                 std::abs(region.latest_pixel / width - ray.pixel / width));
+      if (shift <= max_shift) pairs.push_back(SceneResidual{ray.pixel, ray.apparent_c - region.latest_apparent_c, shift});
+    }
     if (region.views < o.min_reference_views) continue;
-    if (region.m2_surface > max_variance * static_cast<float>(region.views - 1)) continue;
     // In apparent kelvin: a reading δ higher moves the surface estimate by δ / ε (the band
     // radiance's slope at the two temperatures taken as equal: within 2 % for a surface
     // 10 K off room temperature).
     residuals.push_back(SceneResidual{ray.pixel, (ray.surface_c - region.mean_surface_c) * ray.emissivity});
   }
-  const SceneCorrectionUpdate u = scene_correction.Update(residuals);
+  const SceneCorrectionUpdate u = scene_correction.Update(pairs, residuals, measure);
+  record.pair_shift_px = u.pair_shift_px;
+  if (u.frame_estimated) event_measured = true;
+  record.pair_rays = u.pair_rays;
   record.reference_rays = u.reference_rays;
   record.offset_estimated = u.frame_estimated;
   record.offset_correction_k = u.frame_offset_k;
@@ -120,6 +154,10 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
         s.weight_confidence += wc;
         s.surface += wc * ray.surface_c;
         s.apparent += wc * ray.apparent_c;
+        if (wc > s.best) {
+          s.best = wc;
+          s.pixel = ray.pixel;
+        }
       }
     }
     std::vector<Record>& frame_records = chunk_records[chunk];
@@ -136,6 +174,7 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
     records_droppable += chunk_beyond_cap[chunk];
   }
   if (records_droppable >= std::max(kMinCompactDrop, num_records / 2)) Compact(nullptr);
+  ++fused_frames;
 }
 
 void ThermalFusion::Impl::Compact(std::vector<uint32_t>* begin_out) {
@@ -195,10 +234,13 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<
   const float confidence = s.weight_confidence / s.weight;
   const float surface = s.surface / s.weight_confidence;
   const float apparent = s.apparent / s.weight_confidence;
+  const int32_t pixel = s.pixel;
   s = FrameSum();
   Region& region = regions[r];
   region.latest_surface_c = surface;
   region.latest_apparent_c = apparent;
+  region.latest_frame = fused_frames;
+  region.latest_pixel = pixel;
   region.latest_confidence = confidence;
   if (region.views < std::numeric_limits<uint16_t>::max()) ++region.views;
   const float n = region.views;

@@ -12,11 +12,20 @@
 // ray already lands on a surface region whose temperature the earlier frames estimated, so
 // its residual against that estimate is the pixel's offset plus this frame's, plus noise.
 //
-// Per frame: the residuals of the rays that land on a *reference* region (seen in enough
-// views that agree) give the frame's offset as their median (robust to reflections and
-// misregistered edges, which are few and one-sided); what each pixel keeps beyond it moves
-// that pixel's estimate a step (an exponential mean over frames), re-centred so that the
-// pixel estimates carry no common part. The model stays anchored to the first frames'
+// The frame's offset is measured on pairs: each ray and its region's latest view from before
+// the event differ by the offset's jump (plus the offset removed from that view), and, when
+// the two pixels are near, by nothing the optics do at them (vignetting, narcissus, fixed
+// pattern); the robust median of the nearest pairs that suffice is the frame's offset
+// relative to the first frames'. Every such measurement stands on views that earlier
+// corrections made, so any bias of it is carried on to every later frame: measured in every
+// frame, residual vignetting wandered the offsets by 1.7–3.8 K over a 31 s fixture walk
+// (pairs up to 8–16 px apart; README, Temperature). It is therefore measured once per
+// shutter event (ffc.txt, or a frozen frame: the closure), on the first frame fused within
+// event_window_s after it that has enough pairs, and held in between: a camera's slow drift
+// between events (tenths of a kelvin a minute) is left alone. The pixel offsets are measured
+// against the regions' means: what each pixel's residual keeps beyond the frame's median
+// moves that pixel's estimate a step (an exponential mean over frames), re-centred so that
+// the pixel estimates carry no common part. The model stays anchored to the first frames'
 // level: a constant offset is invisible to any scene-based method (the camera's absolute
 // calibration is the bench's job).
 //
@@ -24,6 +33,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -31,7 +41,7 @@
 namespace hw::reconstruct {
 
 struct SceneCorrectionOptions {
-  // Estimate and remove each frame's common offset (body drift, shutter-event jumps).
+  // Estimate and remove each frame's common offset where it jumps (shutter events).
   bool frame_offset = true;
   // Estimate and remove each pixel's own offset (fixed-pattern and column noise, vignetting
   // left over).
@@ -45,6 +55,24 @@ struct SceneCorrectionOptions {
   // sub-pixel shift and would teach the pixels the scene. 0.5 K: several times NETD plus the
   // offsets being estimated.
   double max_reference_std_k = 0.5;
+  // The frame's offset is measured once per shutter event, on the first frame within this
+  // time after it with enough pairs, s, >= 0, and held elsewhere; ThermalFusion counts it from
+  // when the frames after the event are fused again (its confidence's ffc_settle_s +
+  // ffc_ramp_s later). 1 s: the first frame fused after an event usually has thousands of
+  // pairs; the rest of the window covers a camera looking at new surface.
+  double event_window_s = 1.0;
+  // ... on pairs: a ray and its region's latest view from before the event, taken by pixels
+  // at most this far apart in x and in y, px, [0, 10000]. The nearest that suffice are used
+  // (the smallest shift within which min_reference_rays pairs lie): near-same pixels see the
+  // same optics (vignetting, narcissus, fixed pattern), so their difference is the jump alone.
+  // Far pairs are not: on a 3.5 s fixture sweep (c5 drops the first half second after the
+  // event, in which the camera moved on) the first pairs that sufficed were 60 px apart and
+  // measured the jump as +0.56 K with the fixture's vignetting left in, −0.14 K with it
+  // undone. 16: measured in every frame of the 31 s walk with the vignetting left in, pairs
+  // up to 0/2/4/8/16 px apart moved the offsets by up to 0.03/0.17/0.38/1.7/3.8 K over ~260
+  // measurements, about a hundredth each; once per event that is harmless. An event with
+  // too few pairs within it is not measured (the offset is kept).
+  int max_pair_shift_px = 16;
   // Rays further than this from their reference are not used, K, > 0 (reflections, blur
   // halos, a surface that changed). 1.5 K: above the offsets a camera drifts by between two
   // shutter events (the FLIR/Seek cores' 0.3–1 K), far below a reflection of a hot object.
@@ -64,15 +92,19 @@ struct SceneCorrectionOptions {
 };
 
 // One ray's residual against its reference: its apparent temperature (after the pixel
-// correction) less what the reference region predicts for it, K.
+// correction) less what the reference region predicts for it, K; for a pair, how far apart
+// (Chebyshev, px) the two pixels were.
 struct SceneResidual {
   int32_t pixel;     // y · width + x
   float residual_k;
+  int32_t shift_px = 0;
 };
 
 // What one frame's update found.
 struct SceneCorrectionUpdate {
-  int reference_rays = 0;      // residuals within max_residual_k
+  int pair_rays = 0;           // pairs used, within max_residual_k (frame offset)
+  int pair_shift_px = -1;      // the largest shift among the pairs used, px; -1: not measured
+  int reference_rays = 0;      // residuals within max_residual_k (pixel offsets)
   bool frame_estimated = false;  // enough of them for this frame's own offset
   double frame_offset_k = 0;   // offset removed from this frame (K; the last one when not estimated)
   double pixel_offset_rms_k = 0;  // RMS of the pixel estimates after the update, K
@@ -91,11 +123,17 @@ class SceneCorrection {
   // itself when pixel_offset is off. Asserts the type and size.
   cv::Mat CorrectPixels(const cv::Mat& apparent_c) const;
 
-  // Estimates this frame's offset from the residuals of its rays (computed on the image
-  // CorrectPixels returned, without the frame offset) and updates the pixel estimates from
-  // what each residual keeps beyond it. Reorders `residuals`. The returned frame offset is
-  // to be subtracted from every ray of the frame.
-  SceneCorrectionUpdate Update(std::vector<SceneResidual>& residuals);
+  // When `after_event` (the frame lies within event_window_s of a shutter event), estimates
+  // this frame's offset from the nearest of `pairs` that suffice (each ray's apparent
+  // temperature less its region's latest view from before the event, with the two pixels'
+  // shift: the change of the camera's offset since that view plus the offset removed from
+  // it); otherwise keeps the last one.
+  // Updates the pixel estimates from what each of `residuals` (apparent temperature less the
+  // region's mean) keeps beyond their median. Both computed on the image CorrectPixels
+  // returned, without the frame offset. Reorders both. The returned frame offset is to be
+  // subtracted from every ray of the frame.
+  SceneCorrectionUpdate Update(std::vector<SceneResidual>& pairs, std::vector<SceneResidual>& residuals,
+                               bool after_event);
 
   // Current pixel estimates, K, CV_32FC1 (zeros until learnt).
   const cv::Mat& pixel_offset_k() const { return pixel_offset_k_; }
@@ -106,6 +144,8 @@ class SceneCorrection {
   cv::Mat pixel_offset_k_;
   double frame_offset_k_ = 0;
   std::vector<float> scratch_;
+
+  std::pair<float, size_t> KeptMedian(std::vector<SceneResidual>& residuals);
 };
 
 }  // namespace hw::reconstruct
