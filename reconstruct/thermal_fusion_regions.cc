@@ -44,7 +44,11 @@ void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameReco
   const int max_shift = o.max_pair_shift_px;
   uint64_t cached_key = ~uint64_t{0};
   int32_t cached_block = -1;
-  for (const Ray& ray : fused) {
+  // Between events with the pixel offsets off (frame only), nothing to look up: the held
+  // offset is applied as it is.
+  const size_t n_rays = measure || o.pixel_offset ? fused.size() : 0;
+  for (size_t i = 0; i < n_rays; ++i) {
+    const Ray& ray = fused[i];
     const Eigen::Vector3f g = ray.point_in_world / voxel_m;
     const int32_t r = FindRegion(FloorToInt(g.x() + 0.5f), FloorToInt(g.y() + 0.5f), FloorToInt(g.z() + 0.5f),
                                  cached_key, cached_block);
@@ -60,16 +64,16 @@ void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameReco
                                  std::abs(region.latest_pixel / width - ray.pixel / width));
       if (shift <= max_shift) pairs.push_back(SceneResidual{ray.pixel, ray.apparent_c - region.latest_apparent_c, shift});
     }
-    if (region.views < o.min_reference_views) continue;
+    if (!o.pixel_offset || region.views < o.min_reference_views) continue;
     // In apparent kelvin: a reading δ higher moves the surface estimate by δ / ε (the band
     // radiance's slope at the two temperatures taken as equal: within 2 % for a surface
     // 10 K off room temperature).
     residuals.push_back(SceneResidual{ray.pixel, (ray.surface_c - region.mean_surface_c) * ray.emissivity});
   }
   const SceneCorrectionUpdate u = scene_correction.Update(pairs, residuals, measure);
-  record.pair_shift_px = u.pair_shift_px;
   if (u.frame_estimated) event_measured = true;
   record.pair_rays = u.pair_rays;
+  record.pair_shift_px = u.pair_shift_px;
   record.reference_rays = u.reference_rays;
   record.offset_estimated = u.frame_estimated;
   record.offset_correction_k = u.frame_offset_k;
