@@ -117,6 +117,15 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     const SpotFinder finder(mesh, config.spots);
     result.detection = finder.Detect();
     result.timings.detect_s = Seconds(t);
+    for (const Spot& s : result.detection->spots) {
+      if (s.resolved) continue;
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "%s is %.2f thermal pixels across (one covers %.1f mm of its surface): under-resolved, its "
+                    "peak and ΔT read low and its size high; measure it from closer (spots.min_resolved_px %g)",
+                    s.id.c_str(), s.width_px, 1000 * s.footprint_m, config.spots.min_resolved_px);
+      result.warnings.push_back(text);
+    }
     if (inputs.truth) {
       result.truth = ScoreAgainstTruth(result.detection->spots, *inputs.truth, inputs.truth_observed_only);
       AddThresholdErrors(finder, result.detection->spots, *inputs.truth, inputs.truth_observed_only, &*result.truth);
@@ -415,6 +424,11 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
     std::vector<std::string> false_spots;
     for (const std::string& id : r.truth->false_spots) false_spots.push_back(core::JsonString(id));
     t.Add("false_spot_ids", core::JsonArray(false_spots, "    "));
+    std::vector<std::string> partly;
+    for (const auto& [truth_id, spot_id] : r.truth->partly_observed) {
+      partly.push_back(core::JsonObject().String("truth", truth_id).String("spot", spot_id).str());
+    }
+    t.Add("partly_observed_matches", core::JsonArray(partly, "    "));
     root.Add("truth", t.str());
   }
   core::JsonObject timings;
@@ -444,18 +458,21 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
     if (r.detection->unmeasured > 0) {
       s << "  warning: " << r.detection->unmeasured << " weaker candidates not measured (spots.max_candidates)\n";
     }
-    s << "  id    peak °C  ref °C    ΔT K   area cm²        length cm      width cm   severity\n";
+    s << "  id    peak °C  ref °C    ΔT K   area cm²        length cm      width cm    px  severity\n";
     int shown = 0;
     for (const Spot& x : r.detection->spots) {
       if (++shown > 12) {
         s << "  … " << r.detection->spots.size() - 12 << " more in analyze.json\n";
         break;
       }
+      // Thermal pixels across (width / footprint), "-" when the mesh does not say.
+      char px[16] = "    -";
+      if (std::isfinite(x.width_px)) std::snprintf(px, sizeof px, "%5.1f", x.width_px);
       char line[256];
-      std::snprintf(line, sizeof line, "  %-4s %8.1f %7.1f %7.1f %8.1f ±%-6.1f %6.1f ±%-5.1f %6.1f ±%-5.1f %s\n",
+      std::snprintf(line, sizeof line, "  %-4s %8.1f %7.1f %7.1f %8.1f ±%-6.1f %6.1f ±%-5.1f %6.1f ±%-5.1f %s%s %s\n",
                     x.id.c_str(), x.peak_c, x.reference_c, x.delta_k, 1e4 * x.area_m2, 1e4 * x.area_sigma_m2,
-                    100 * x.length_m, 100 * x.length_sigma_m, 100 * x.width_m, 100 * x.width_sigma_m,
-                    x.severity.c_str());
+                    100 * x.length_m, 100 * x.length_sigma_m, 100 * x.width_m, 100 * x.width_sigma_m, px,
+                    x.resolved ? " " : "!", x.severity.c_str());
       s << line;
     }
   } else {
@@ -463,7 +480,9 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
   }
   if (r.truth) {
     s << "  truth: " << r.truth->found << " found, " << r.truth->missed << " missed, " << r.truth->false_spots.size()
-      << " false; max |error| area " << FixedText(100 * r.truth->max_abs_area_error, 2) << " %, length "
+      << " false";
+    for (const auto& [truth_id, spot_id] : r.truth->partly_observed) s << ", " << spot_id << " on " << truth_id << " (seen in part)";
+    s << "; max |error| area " << FixedText(100 * r.truth->max_abs_area_error, 2) << " %, length "
       << FixedText(100 * r.truth->max_abs_length_error, 2) << " %, width " << FixedText(100 * r.truth->max_abs_width_error, 2)
       << " %\n         at the truth's own thresholds: area " << FixedText(100 * r.truth->max_abs_area_error_at_threshold, 2)
       << " %, length " << FixedText(100 * r.truth->max_abs_length_error_at_threshold, 2) << " %, width "

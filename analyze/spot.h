@@ -2,6 +2,7 @@
 
 // A measured hot or cold spot: what analyze.json lists per spot and the report shows.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 namespace hw::analyze {
 
 struct Spot {
+  static constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
   std::string id;     // "H1", "H2", … (hot), "C1", … (cold), by decreasing |ΔT|
   bool hot = true;
   // Temperatures, °C, of the field measured (ThermalMesh::temperature_field).
@@ -36,6 +38,12 @@ struct Spot {
   double mean_views = 0;
   double mean_view_spread_c = 0;  // temperature_std_c: the spread across views, K
   double boundary_std_c = 0;  // temperature spread across views at the boundary
+  // The thermal image's resolution over the region (temperature_footprint_m); NaN when the
+  // mesh does not carry it (then no blur term is in the uncertainties).
+  double footprint_m = kUnknown;   // area-weighted mean size of a thermal pixel on the surface
+  double blur_sigma_m = kUnknown;  // σ_b = footprint · √(1/12 + optics_psf_px²)
+  double width_px = kUnknown;      // width_m / footprint_m: thermal pixels across the spot
+  bool resolved = true;       // width_px >= min_resolved_px (true when unknown)
   // Severity from the configured table.
   std::string severity;
   std::string action;

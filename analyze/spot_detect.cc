@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "analyze/iso_region.h"
+#include "analyze/spot_resolution.h"
 #include "core/option_check.h"
 #include "core/strings.h"
 #include "core/yaml_reader.h"
@@ -577,6 +578,7 @@ Spot MakeSpot(const Context& c, const Measured& m, bool hot, const std::vector<S
   spot.length_m = extent.length_m;
   spot.width_m = extent.width_m;
   spot.unrolling = extent.unrolling;
+  ApplyResolution(RegionMean(c, m.region, c.mesh.footprint_m), m.iso.perimeter_m, options, &spot);
   if (const SeverityBand* band = SeverityFor(table, spot.delta_k)) {
     spot.severity = band->name;
     spot.action = band->action;

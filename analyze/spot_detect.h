@@ -141,6 +141,20 @@ struct SpotOptions {
   // edge, where thermal and depth edges misregister, is in a few (two cold specks: 0.13 and
   // 0.27, 3-4 frames). 0.5: half as many.
   double min_views_ratio = 0.5;
+  // The thermal image's resolution (meshes with temperature_footprint_m, the size of a
+  // thermal pixel on the surface). Gaussian σ of the thermal optics' blur, pixels, [0, 20]:
+  // with the pixel's box (σ 1/√12 px) it blurs the surface's temperature by
+  // σ_b = footprint · √(1/12 + psf²). 0.5: a good LWIR lens on a 12-17 µm pitch (the Airy
+  // core at f/1 and 10 µm spans about a pixel). A blur never moves a straight step's
+  // half-ΔT line, but widens a spot whose profile peaks (a buried cable, a point source):
+  // by up to ≈ 1.8 σ_b in all (exponential profile, the heat-spreading shape), so width,
+  // length and area get a one-sided term of half that as one sigma.
+  double optics_psf_px = 0.5;
+  // A spot narrower than this many thermal pixels (width / footprint) is flagged
+  // under-resolved in analyze.json and warned about, >= 0 (0: never): its peak and ΔT read
+  // low and its size high. 3: the thermographer's measurement-spot rule (a spot must
+  // cover at least 3 × 3 pixels of the camera for its temperature to be measured).
+  double min_resolved_px = 3;
   // Candidates measured at most, strongest first, >= 1: a bound on the time a very noisy
   // model can take (each weak candidate may flood up to max_area_m2 of surface). The count
   // left unmeasured is reported.

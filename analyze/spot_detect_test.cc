@@ -7,15 +7,19 @@
 
 #include <gtest/gtest.h>
 
+#include "analyze/spot_resolution.h"
+
 namespace hw::analyze {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
 // A rectangle z = 0 of size_x_m × size_y_m centred on the origin, triangulated on a grid
-// of `step_m` with alternating diagonals, carrying temperature(x, y).
+// of `step_m` with alternating diagonals, carrying temperature(x, y) and, when finite, a
+// uniform temperature_footprint_m.
 ThermalMesh Rectangle(double size_x_m, double size_y_m, double step_m,
-                      const std::function<double(double, double)>& temperature) {
+                      const std::function<double(double, double)>& temperature,
+                      double footprint_m = std::nan("")) {
   const int nx = static_cast<int>(std::lround(size_x_m / step_m));
   const int ny = static_cast<int>(std::lround(size_y_m / step_m));
   core::PlyMesh ply;
@@ -30,6 +34,9 @@ ThermalMesh Rectangle(double size_x_m, double size_y_m, double step_m,
   }
   ply.SetPositions(points, core::PlyType::kFloat64);
   ply.AddProperty("temperature_c", core::PlyType::kFloat64, t);
+  if (std::isfinite(footprint_m)) {
+    ply.AddProperty("temperature_footprint_m", core::PlyType::kFloat64, std::vector<double>(t.size(), footprint_m));
+  }
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
       const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 2, d = a + nx + 1;
@@ -85,6 +92,80 @@ TEST(SpotDetectTest, DiscOnAPlaneHasItsClosedForms) {
   EXPECT_LE(std::abs(s.area_m2 - kPi * radius * radius), 2 * s.area_sigma_m2);
   EXPECT_EQ(s.severity, "major");  // ΔT ≈ 40 K > 15 K
   EXPECT_EQ(s.unrolling, "plane");
+}
+
+// e^(-|x| / λ), the profile of heat spreading from a buried line, blurred by a Gaussian of
+// std s (closed form: an exponentially modified Gaussian on each side).
+double BlurredExponential(double x, double lambda, double s) {
+  const double a = s * s / lambda, r = s * std::sqrt(2.0);
+  return 0.5 * std::exp(s * s / (2 * lambda * lambda)) *
+         (std::exp(-x / lambda) * std::erfc((a - x) / r) + std::exp(x / lambda) * std::erfc((a + x) / r));
+}
+
+// A strip 0.307 m long (plateau along y, sharp ends) whose cross-section is `across`: 20 °C
+// plus 10 K at the profile's 1.
+ThermalMesh Strip(const std::function<double(double)>& across, double footprint_m) {
+  return Rectangle(0.3, 0.5, 0.002, [&](double x, double y) {
+    const double along = std::abs(y) <= 0.15 ? 1.0 : std::exp(-(std::abs(y) - 0.15) / 0.005);
+    return 20 + 10 * across(x) * along;
+  }, footprint_m);
+}
+
+// The thermal image blurs a peaked spot wider (a buried cable seen at 3-5 pixels across):
+// the half-ΔT width grows by ~1.75 σ_b, which the mesh's own noise terms know nothing of.
+// With temperature_footprint_m the uncertainty spans it; without, it does not.
+TEST(SpotDetectTest, BlurOfAPeakedSpotIsCoveredByTheResolutionTerm) {
+  const double width = 0.024, lambda = 0.5 * width / std::log(2.0);  // FWHM 24 mm
+  const double blur = 0.004;                                        // σ_b on the surface
+  const double footprint = blur / std::sqrt(1.0 / 12 + 0.25);       // optics_psf_px 0.5
+  const auto profile = [&](double x) { return BlurredExponential(x, lambda, blur); };
+  const SpotDetection with = DetectSpots(Strip(profile, footprint), SpotOptions());
+  const SpotDetection without = DetectSpots(Strip(profile, std::nan("")), SpotOptions());
+  ASSERT_EQ(with.spots.size(), 1u);
+  ASSERT_EQ(without.spots.size(), 1u);
+  const Spot& s = with.spots[0];
+  EXPECT_NEAR(s.footprint_m, footprint, 1e-9);
+  EXPECT_NEAR(s.blur_sigma_m, blur, 1e-9);
+  EXPECT_NEAR(s.width_px, s.width_m / footprint, 1e-9);
+  EXPECT_TRUE(s.resolved);  // ≈ 4.5 px
+  // Widened by 6-7.5 mm (1.5-1.9 σ_b: the closed form gives 7.0 mm; the mesh's 2 mm steps).
+  EXPECT_GT(s.width_m - width, 1.5 * blur);
+  EXPECT_LT(s.width_m - width, 1.9 * blur);
+  EXPECT_NEAR(without.spots[0].width_m, s.width_m, 1e-12);  // the field changes no figure
+  EXPECT_LE(s.width_m - width, 2 * s.width_sigma_m);
+  EXPECT_GT(s.width_m - width, 2 * without.spots[0].width_sigma_m);
+  const double true_area = width * (0.3 + 2 * 0.005 * std::log(2.0));
+  EXPECT_LE(s.area_m2 - true_area, 2 * s.area_sigma_m2);
+  EXPECT_GT(s.area_m2 - true_area, 2 * without.spots[0].area_sigma_m2);
+  EXPECT_TRUE(std::isnan(without.spots[0].footprint_m));
+  EXPECT_TRUE(without.spots[0].resolved);
+}
+
+// A straight step's half-ΔT line does not move under blur: the same footprint leaves a
+// 24 mm box strip's width within half a mesh step and only bounds it (one-sided, ≤ 0.9 σ_b
+// as one sigma).
+TEST(SpotDetectTest, BlurLeavesAStepEdgedSpotInPlace) {
+  const double half = 0.012, blur = 0.004, footprint = blur / std::sqrt(1.0 / 12 + 0.25);
+  const auto box = [&](double x) {
+    return 0.5 * (std::erf((x + half) / (blur * std::sqrt(2.0))) - std::erf((x - half) / (blur * std::sqrt(2.0))));
+  };
+  const SpotDetection d = DetectSpots(Strip(box, footprint), SpotOptions());
+  ASSERT_EQ(d.spots.size(), 1u);
+  EXPECT_NEAR(d.spots[0].width_m, 2 * half, 0.001);
+  EXPECT_LT(d.spots[0].width_sigma_m, 0.5 * kMaxBlurWideningSigmas * blur + 0.001);
+}
+
+// Fewer thermal pixels across than min_resolved_px: flagged (analyze warns), not dropped.
+TEST(SpotDetectTest, ASpotNarrowerThanThreePixelsIsUnderResolved) {
+  const double lambda = 0.012 / std::log(2.0);
+  const ThermalMesh mesh = Strip([&](double x) { return BlurredExponential(x, lambda, 0.004); }, 0.012);
+  const SpotDetection d = DetectSpots(mesh, SpotOptions());
+  ASSERT_EQ(d.spots.size(), 1u);
+  EXPECT_LT(d.spots[0].width_px, 3);
+  EXPECT_FALSE(d.spots[0].resolved);
+  SpotOptions lenient;
+  lenient.min_resolved_px = 0;
+  EXPECT_TRUE(DetectSpots(mesh, lenient).spots.at(0).resolved);
 }
 
 TEST(SpotDetectTest, HotAndColdSpotsAreOrderedAndNamed) {
@@ -381,6 +462,12 @@ TEST(SpotDetectTest, OptionsAndSeverityChecks) {
   o = SpotOptions();
   o.ring_normal_radius_m = -0.01;
   EXPECT_NE(o.Check().find("ring_normal_radius_m"), std::string::npos);
+  o = SpotOptions();
+  o.optics_psf_px = -1;
+  EXPECT_NE(o.Check().find("optics_psf_px"), std::string::npos);
+  o = SpotOptions();
+  o.min_resolved_px = std::nan("");
+  EXPECT_NE(o.Check().find("min_resolved_px"), std::string::npos);
   o = SpotOptions();
   o.max_view_spread_ratio = -0.5;
   EXPECT_NE(o.Check().find("max_view_spread_ratio"), std::string::npos);

@@ -56,12 +56,14 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
     double distance;
     size_t truth, spot;
   };
-  std::vector<size_t> considered;
+  std::vector<size_t> considered, matchable;
   for (size_t t = 0; t < truth.size(); ++t) {
-    if (!observed_only || truth[t].observed_fraction > min_observed_fraction) considered.push_back(t);
+    const double f = truth[t].observed_fraction;
+    if (!observed_only || f > min_observed_fraction) considered.push_back(t);
+    if (!observed_only || f != 0) matchable.push_back(t);  // -1: not given
   }
   std::vector<Pair> pairs;
-  for (size_t t : considered) {
+  for (size_t t : matchable) {
     const double gate = std::max(gate_m, 0.5 * truth[t].length_m);
     for (size_t s = 0; s < spots.size(); ++s) {
       if (spots[s].hot != truth[t].hot) continue;
@@ -113,6 +115,11 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
   }
   for (size_t s = 0; s < spots.size(); ++s) {
     if (!used.count(s)) score.false_spots.push_back(spots[s].id);
+  }
+  for (size_t t : matchable) {
+    if (spot_of_truth[t] >= 0 && std::find(considered.begin(), considered.end(), t) == considered.end()) {
+      score.partly_observed.emplace_back(truth[t].id, spots[static_cast<size_t>(spot_of_truth[t])].id);
+    }
   }
   return score;
 }

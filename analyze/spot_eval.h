@@ -61,6 +61,10 @@ struct TruthMatch {
 struct TruthScore {
   std::vector<TruthMatch> matches;     // one per truth spot considered
   std::vector<std::string> false_spots;  // detections matching no truth spot
+  // Detections matched to a truth spot the scan saw too little of to be scored
+  // (observed_only, 0 < observed_fraction <= min_observed_fraction): neither found nor
+  // false; (truth id, spot id).
+  std::vector<std::pair<std::string, std::string>> partly_observed;
   int found = 0;
   int missed = 0;
   double max_abs_area_error = 0;       // over found spots
@@ -75,7 +79,8 @@ struct TruthScore {
 // within max(gate_m, half the truth's length). `observed_only`: score only truth spots with
 // observed_fraction > min_observed_fraction and compare the area with observed_area_m2
 // (a reconstruction sees part of a pipe band); lengths and widths are then scored only
-// for spots observed in full (fraction >= 0.99).
+// for spots observed in full (fraction >= 0.99). A truth spot seen less (but seen) still
+// takes its detection, listed in partly_observed, so that finding it is never a false spot.
 TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<TruthSpot>& truth,
                              bool observed_only = false, double min_observed_fraction = 0.5,
                              double gate_m = 0.1);

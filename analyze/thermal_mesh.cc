@@ -223,6 +223,7 @@ ThermalMesh MakeThermalMesh(const core::PlyMesh& ply, const std::filesystem::pat
   mesh.confidence = OptionalField(ply, "temperature_confidence", kept);
   mesh.views = OptionalField(ply, "temperature_views", kept);
   mesh.std_c = OptionalField(ply, "temperature_std_c", kept);
+  mesh.footprint_m = OptionalField(ply, "temperature_footprint_m", kept);
 
   // Area-weighted normals (the cross product's length is twice the area).
   mesh.normals.assign(kept.size(), Eigen::Vector3d::Zero());

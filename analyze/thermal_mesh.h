@@ -46,6 +46,7 @@ struct ThermalMesh {
   std::vector<double> confidence;  // temperature_confidence, [0, 1]
   std::vector<double> views;       // temperature_views, count of thermal frames
   std::vector<double> std_c;       // temperature_std_c, K, spread across views
+  std::vector<double> footprint_m; // temperature_footprint_m, m, a thermal pixel on the surface
   // Area-weighted vertex normals (unit; zero for a vertex of no face).
   std::vector<Eigen::Vector3d> normals;
   MeshLoadReport report;

@@ -140,6 +140,7 @@ void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::Ply
   ply.AddProperty("temperature_confidence", core::PlyType::kFloat32, to_double(t.confidence));
   ply.AddProperty("temperature_views", core::PlyType::kUInt16, to_double(t.views));
   ply.AddProperty("temperature_std_c", core::PlyType::kFloat32, to_double(t.std_c));
+  ply.AddProperty("temperature_footprint_m", core::PlyType::kFloat32, to_double(t.footprint_m));
 }
 
 void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,

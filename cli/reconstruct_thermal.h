@@ -27,8 +27,8 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
 void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruct::ScanReconstruction& run,
                       const core::Scan& scan, ThermalCommandResult& result);
 
-// Adds temperature_c, temperature_apparent_c, temperature_confidence, temperature_views and
-// temperature_std_c (per vertex of `ply`, in that order) from `t`.
+// Adds temperature_c, temperature_apparent_c, temperature_confidence, temperature_views,
+// temperature_std_c and temperature_footprint_m (per vertex of `ply`, in that order) from `t`.
 void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::PlyMesh& ply);
 
 // Every method's error at the model vertices (already in the truth's frame) against truth.

@@ -416,6 +416,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
   out.apparent_c.assign(n, kNaN);
   out.confidence.assign(n, 0.0f);
   out.std_c.assign(n, kNaN);
+  out.footprint_m.assign(n, kNaN);
   out.views.assign(n, 0);
   if (m.regions.empty() || m.voxel_m == 0) return out;
   const int num_threads = std::max(1, std::min<int>(internal::ResolveThreads(m.options.num_threads),
@@ -427,7 +428,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
     std::array<float, 8> weight;
     for (size_t i = chunk * n / num_threads; i < (chunk + 1) * n / num_threads; ++i) {
       m.Corners(points_in_world[i], voxel, weight);
-      double w_sum = 0, surface = 0, apparent = 0, confidence = 0, spread = 0, views = 0, w_spread = 0;
+      double w_sum = 0, surface = 0, apparent = 0, confidence = 0, spread = 0, views = 0, w_spread = 0, footprint = 0;
       for (int c = 0; c < 8; ++c) {
         if (weight[c] <= 0) continue;
         const int32_t r = m.FindRegion(voxel[c].x(), voxel[c].y(), voxel[c].z(), cached_key, cached_block);
@@ -465,6 +466,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
         apparent += w * static_cast<double>(a);
         confidence += w * static_cast<double>(conf);
         views += w * static_cast<double>(v);
+        footprint += w * static_cast<double>(g.footprint_m);
         if (std::isfinite(sd)) {
           spread += w * static_cast<double>(sd);
           w_spread += w;
@@ -475,6 +477,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
       out.apparent_c[i] = static_cast<float>(apparent / w_sum);
       out.confidence[i] = static_cast<float>(confidence / w_sum);
       out.views[i] = static_cast<uint16_t>(std::max(1.0, std::round(views / w_sum)));
+      out.footprint_m[i] = static_cast<float>(footprint / w_sum);
       if (w_spread > 0) out.std_c[i] = static_cast<float>(spread / w_spread);
     }
   });

@@ -151,6 +151,10 @@ struct PointTemperatures {
   std::vector<float> apparent_c;      // NaN where unobserved
   std::vector<float> confidence;      // 0 where unobserved
   std::vector<float> std_c;           // spread across views, NaN where unobserved
+  // Size of a thermal pixel on the surface, m: √(across · along) of the footprint, mean over
+  // the views weighted by their confidence (all views, whatever the method); NaN where
+  // unobserved. The thermal image's resolution at the point.
+  std::vector<float> footprint_m;
   // Frames that observed it (offline: the inlier views among the most confident kept,
   // max_views_per_region at most), 0 where unobserved.
   std::vector<uint16_t> views;

@@ -34,6 +34,10 @@ struct Region {
   // Plain mean (Welford, so that the spread of tens of views at ~300 K stays exact in float).
   uint16_t views = 0;
   float mean_surface_c = 0, mean_apparent_c = 0, mean_confidence = 0, m2_surface = 0;
+  // Confidence-weighted mean size of a thermal pixel on the surface over the views, m
+  // (√(across · along) of the footprint): the thermal image's resolution there, which
+  // analyze/ turns into the blur's bound on a spot's width.
+  float footprint_m = 0;
   // voxblox's capped running mean.
   float capped_surface_c = 0, capped_apparent_c = 0, capped_weight = 0;
   // The paper's online rule (confidence < 0: not yet observed).
@@ -53,7 +57,7 @@ struct Record {
 // Accumulates a frame's rays per region before the update rules run once per region and
 // frame: several rays of one frame are one view, not several.
 struct FrameSum {
-  float weight = 0, weight_confidence = 0, surface = 0, apparent = 0;
+  float weight = 0, weight_confidence = 0, surface = 0, apparent = 0, footprint = 0;
   float best = 0;       // largest splat weight (share · confidence) so far
   int32_t pixel = -1;   // its ray's pixel
 };

@@ -158,6 +158,7 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
         s.weight_confidence += wc;
         s.surface += wc * ray.surface_c;
         s.apparent += wc * ray.apparent_c;
+        s.footprint += wc * std::sqrt(ray.footprint_u.norm() * ray.footprint_v.norm());
         if (wc > s.best) {
           s.best = wc;
           s.pixel = ray.pixel;
@@ -238,6 +239,7 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<
   const float confidence = s.weight_confidence / s.weight;
   const float surface = s.surface / s.weight_confidence;
   const float apparent = s.apparent / s.weight_confidence;
+  const float footprint = s.footprint / s.weight_confidence;
   const int32_t pixel = s.pixel;
   s = FrameSum();
   Region& region = regions[r];
@@ -253,6 +255,10 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<
   region.m2_surface += delta * (surface - region.mean_surface_c);
   region.mean_apparent_c += (apparent - region.mean_apparent_c) / n;
   region.mean_confidence += (confidence - region.mean_confidence) / n;
+  // Weighted by confidence: mean_confidence · views is the sum of the views' confidences.
+  const float confidence_sum = region.mean_confidence * n;
+  region.footprint_m = confidence_sum > 0 ? region.footprint_m + (footprint - region.footprint_m) * confidence / confidence_sum
+                                          : footprint;
   double capped_value = region.capped_surface_c, capped_weight = region.capped_weight;
   CappedMeanUpdate(max_weight, surface, capped_value, capped_weight);
   double capped_apparent = region.capped_apparent_c, apparent_weight = region.capped_weight;

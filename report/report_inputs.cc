@@ -143,6 +143,9 @@ ReportSpot ReadSpot(const JsonReader& r, const Json& s, const std::string& w) {
   o.mean_views = r.Number(s, "mean_views", w);
   o.spread_c = r.Has(s, "mean_view_spread_c") ? r.Number(s, "mean_view_spread_c", w)
                                               : std::numeric_limits<double>::quiet_NaN();
+  o.footprint_m = r.Has(s, "footprint_m") ? r.Number(s, "footprint_m", w) : std::numeric_limits<double>::quiet_NaN();
+  o.width_px = r.Has(s, "width_px") ? r.Number(s, "width_px", w) : std::numeric_limits<double>::quiet_NaN();
+  o.resolved = r.Has(s, "resolved") ? r.Bool(s, "resolved", w) : true;
   o.centroid_m = r.Vector3(s, "centroid_m", w);
   o.peak_m = r.Vector3(s, "peak_m", w);
   o.normal = r.Vector3(s, "normal", w);

@@ -374,6 +374,12 @@ std::vector<Section> SpotSections(const AnalysisRecord& a, const SeverityRanks& 
                 StringPrintf("x %.2f, y %.2f, z %.2f m", s.centroid_m.x(), s.centroid_m.y(), s.centroid_m.z())},
                {"Thermal views", StringPrintf("%.1f on average, confidence %.2f", s.mean_views, s.mean_confidence) +
                                      (std::isnan(s.spread_c) ? "" : StringPrintf(", spread across views %.2f K", s.spread_c))}};
+    if (std::isfinite(s.width_px) && std::isfinite(s.footprint_m)) {
+      kv.rows.push_back({"Thermal resolution",
+                         StringPrintf("%.1f thermal pixels across (one pixel covers %.1f mm of the surface)", s.width_px,
+                                      1000 * s.footprint_m) +
+                             (s.resolved ? "" : "; under-resolved: the peak and ΔT read low and the size high")});
+    }
     sec.blocks.push_back(kv);
     std::vector<const ReportImageRecord*> images;
     for (const std::string& file : s.images) {

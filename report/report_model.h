@@ -33,6 +33,10 @@ struct ReportSpot {
   double peak_c = 0, mean_c = 0, reference_c = 0, delta_k = 0, level_c = 0;
   double area_m2 = 0, area_sigma_m2 = 0, length_m = 0, length_sigma_m = 0, width_m = 0, width_sigma_m = 0;
   double mean_confidence = 0, mean_views = 0, spread_c = 0;  // spread: NaN when absent
+  // The thermal image's resolution over the spot (analyze.json footprint_m, width_px,
+  // resolved): NaN / true when absent.
+  double footprint_m = 0, width_px = 0;
+  bool resolved = true;
   Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero(), peak_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   std::vector<std::string> images;  // relative to the analysis folder

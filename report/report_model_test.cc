@@ -7,6 +7,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/strings.h"
 #include "report/report_test_support.h"
 #include "tests/support.h"
 
@@ -108,6 +109,48 @@ TEST(ReportModelTest, BuildsEverySectionFromARealAnalysis) {
   EXPECT_LT(doc.model_view->markers[0].position_in_world.norm(), 0.1);  // the peak is on the disc
   for (const char* anchor : {"summary", "inspection", "equipment", "scan", "method", "disclaimer"}) {
     EXPECT_NE(FindSection(doc, anchor), nullptr) << anchor;
+  }
+}
+
+// A spot measured with a coarse thermal image: its detail says how many pixels across it was
+// and that it is under-resolved, and the analysis' warning is in the report.
+TEST(ReportModelTest, SpotDetailGivesTheThermalResolution) {
+  const fs::path folder = hw::test::TestFolder();
+  for (const double footprint_m : {0.1, 0.005}) {
+    const test::PlateAnalysis plate = test::MakePlateAnalysis(folder / std::to_string(footprint_m), footprint_m);
+    ReportInputs in;
+    in.analyze_json = plate.analyze_json;
+    in.model_ply = plate.model_ply;
+    in.job = test::TestJob();
+    const Document doc = BuildDocument(in);
+    ASSERT_EQ(plate.result.detection->spots.size(), 1u);
+    const double width_px = plate.result.detection->spots[0].width_px;
+    EXPECT_NEAR(width_px, 0.2 / footprint_m, 0.02 / footprint_m);  // the 20 cm disc
+    const Section* detail = FindSection(doc, "spot-h1");
+    ASSERT_NE(detail, nullptr);
+    std::string resolution;
+    for (const Block& b : detail->blocks) {
+      if (const auto* kv = std::get_if<KeyValues>(&b)) {
+        for (const auto& row : kv->rows) {
+          if (row.first == "Thermal resolution") resolution = row.second;
+        }
+      }
+    }
+    bool warned = false;
+    for (const Section& s : doc.sections) {
+      for (const Block& b : s.blocks) {
+        if (const auto* p = std::get_if<Paragraph>(&b)) warned |= p->text.find("under-resolved") != std::string::npos;
+      }
+    }
+    if (footprint_m > 0.05) {
+      EXPECT_EQ(resolution, core::StringPrintf("%.1f", width_px) +
+                                " thermal pixels across (one pixel covers 100.0 mm of the surface); under-resolved: "
+                                "the peak and ΔT read low and the size high");
+      EXPECT_TRUE(warned);
+    } else {
+      EXPECT_EQ(resolution, core::StringPrintf("%.1f", width_px) + " thermal pixels across (one pixel covers 5.0 mm of the surface)");
+      EXPECT_FALSE(warned);
+    }
   }
 }
 

@@ -3,6 +3,7 @@
 // Test support for report/ tests: a real analysis (analyze::Analyze on a plate with a hot
 // disc, small images) to build reports from, and a job.
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -20,8 +21,13 @@ struct PlateAnalysis {
 
 // analyze::test::HotDiscPlate written to folder/model.ply and analysed into
 // folder/analysis with 160 × 120 images (one overview and the close-up).
-inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder) {
-  const core::PlyMesh ply = analyze::test::HotDiscPlate();
+// footprint_m: when finite, the plate carries it as temperature_footprint_m (a thermal
+// pixel's size on the surface, as reconstruct writes it).
+inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder, double footprint_m = std::nan("")) {
+  core::PlyMesh ply = analyze::test::HotDiscPlate();
+  if (std::isfinite(footprint_m)) {
+    ply.AddProperty("temperature_footprint_m", core::PlyType::kFloat32, std::vector<double>(ply.NumVertices(), footprint_m));
+  }
   std::filesystem::create_directories(folder);
   PlateAnalysis out;
   out.model_ply = folder / "model.ply";

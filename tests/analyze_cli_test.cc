@@ -1,6 +1,7 @@
 // End-to-end tests of `heatwave analyze`: spots, images and analyze.json from a PLY, and what
 // bad meshes, configs and options do.
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -62,6 +63,35 @@ TEST(AnalyzeCliTest, MeasuresTheDiscAndWritesImagesAndJson) {
                                 " --config " + config.string() + " -q");
   EXPECT_EQ(again.exit_code, 2) << again.output;
   EXPECT_NE(again.output.find("--overwrite"), std::string::npos);
+}
+
+// A model that says how coarse the thermal image was (reconstruct's temperature_footprint_m):
+// a 20 cm disc seen with 10 cm pixels is 2 pixels across, under-resolved and warned about;
+// with 5 mm pixels it is 40 across.
+TEST(AnalyzeCliTest, ASpotFewerThanThreeThermalPixelsAcrossIsWarnedAbout) {
+  const fs::path dir = TestFolder();
+  const fs::path config = Write(dir, "analyze.yaml", kConfig);
+  for (const double footprint_m : {0.1, 0.005}) {
+    hw::core::PlyMesh plate = Plate();
+    plate.AddProperty("temperature_footprint_m", hw::core::PlyType::kFloat32,
+                      std::vector<double>(plate.NumVertices(), footprint_m));
+    const fs::path ply = dir / ("plate-" + std::to_string(footprint_m) + ".ply");
+    hw::core::WritePly(ply, plate);
+    const fs::path out = dir / ("out-" + std::to_string(footprint_m));
+    const Result r = Heatwave("analyze " + ply.string() + " --out " + out.string() + " --config " + config.string() +
+                              " --no-images");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string json = hw::core::ReadFile(out / "analyze.json", 1 << 24);
+    const bool coarse = footprint_m > 0.05;
+    EXPECT_EQ(r.output.find("thermal pixels across (one covers 100.0 mm of its surface): under-resolved") !=
+                  std::string::npos,
+              coarse)
+        << r.output;
+    EXPECT_NE(json.find(coarse ? "\"resolved\": false" : "\"resolved\": true"), std::string::npos) << json;
+    const size_t at = json.find("\"width_px\": ");
+    ASSERT_NE(at, std::string::npos) << json;
+    EXPECT_NEAR(std::strtod(json.c_str() + at + 12, nullptr), 0.2 / footprint_m, 0.02 / footprint_m);
+  }
 }
 
 TEST(AnalyzeCliTest, WithoutTemperatureItRendersColourAndSaysSo) {

@@ -53,9 +53,10 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
   EXPECT_NE(r.output.find("offline"), std::string::npos) << r.output;
   const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
   for (const char* name : {"temperature_c", "temperature_apparent_c", "temperature_confidence",
-                           "temperature_views", "temperature_std_c"}) {
+                           "temperature_views", "temperature_std_c", "temperature_footprint_m"}) {
     ASSERT_NE(model.Find(name), nullptr) << name;
   }
+  const auto& footprint = model.Get("temperature_footprint_m").values;
   const auto& t = model.Get("temperature_c").values;
   const auto& apparent = model.Get("temperature_apparent_c").values;
   const auto& views = model.Get("temperature_views").values;
@@ -69,11 +70,15 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
       EXPECT_TRUE(std::isfinite(apparent[i]));
       EXPECT_GT(confidence[i], 0);
       EXPECT_LE(confidence[i], 1);
+      // A 300 px focal length from 0.4 m to 4 m: 1.3 to 13 mm across, at most √10 times
+      // that along a grazing slope.
+      EXPECT_TRUE(footprint[i] > 1e-3 && footprint[i] < 0.05) << i << " " << footprint[i];
     } else {
       ++unobserved;
       EXPECT_TRUE(std::isnan(t[i])) << "unobserved vertex " << i << " has " << t[i];
       EXPECT_TRUE(std::isnan(apparent[i]));
       EXPECT_EQ(confidence[i], 0);
+      EXPECT_TRUE(std::isnan(footprint[i]));
     }
   }
   // The thermal camera sees less than the depth camera (narrower view, 40 ms behind), so
