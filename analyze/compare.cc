@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "analyze/mesh_fields.h"
 #include "analyze/point_index.h"
 #include "core/option_check.h"
 
@@ -50,16 +51,6 @@ Eigen::Vector3d ClosestBarycentric(const Eigen::Vector3d& p, const Eigen::Vector
   const double denom = 1 / (va + vb + vc);
   const double v = vb * denom, w = vc * denom;
   return {1 - v - w, v, w};
-}
-
-// A third of the areas of each vertex's faces, m².
-std::vector<double> VertexAreas(const ThermalMesh& mesh) {
-  std::vector<double> area(static_cast<size_t>(mesh.NumVertices()), 0.0);
-  for (int f = 0; f < mesh.NumFaces(); ++f) {
-    const double third = mesh.FaceArea(f) / 3;
-    for (int k = 0; k < 3; ++k) area[static_cast<size_t>(mesh.faces[static_cast<size_t>(f)][k])] += third;
-  }
-  return area;
 }
 
 // The smallest value whose cumulative weight reaches fraction × total; `pairs` (value,

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "analyze/iso_region.h"
+#include "analyze/mesh_fields.h"
 #include "analyze/spot_resolution.h"
 #include "core/option_check.h"
 #include "core/strings.h"
@@ -24,98 +25,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = 3.14159265358979323846;
 
 size_t U(int i) { return static_cast<size_t>(i); }
-
-// Area-weighted median of (value, weight) pairs; NaN for none. Reorders `samples`.
-double WeightedMedian(std::vector<std::pair<double, double>>& samples) {
-  if (samples.empty()) return kNaN;
-  std::sort(samples.begin(), samples.end());
-  double total = 0;
-  for (const auto& s : samples) total += s.second;
-  double sum = 0;
-  for (const auto& s : samples) {
-    sum += s.second;
-    if (sum >= 0.5 * total) return s.first;
-  }
-  return samples.back().first;
-}
-
-// One third of the area of every face around each vertex, m².
-std::vector<double> VertexAreas(const ThermalMesh& mesh) {
-  std::vector<double> area(U(mesh.NumVertices()), 0.0);
-  for (int f = 0; f < mesh.NumFaces(); ++f) {
-    const double a = mesh.FaceArea(f) / 3;
-    for (int k = 0; k < 3; ++k) area[U(mesh.faces[U(f)][k])] += a;
-  }
-  return area;
-}
-
-// The local background: area-weighted median of the field within `radius_m`, evaluated per
-// cell of a grid of radius/2 and taken by every vertex of the cell. Each cell contributes
-// at most kPerCell vertices (evenly strided, weights scaled to the cell's area) so the cost
-// does not grow with the mesh's local density.
-std::vector<double> LocalBackground(const ThermalMesh& mesh, const std::vector<double>& field,
-                                    const std::vector<double>& vertex_area, double radius_m) {
-  constexpr int kPerCell = 48;
-  const double cell_m = radius_m / 2;
-  struct Key {
-    std::int64_t x, y, z;
-    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct KeyHash {
-    size_t operator()(const Key& k) const {
-      return static_cast<size_t>(k.x * 73856093 ^ k.y * 19349663 ^ k.z * 83492791);
-    }
-  };
-  auto key_of = [&](const Eigen::Vector3d& p) {
-    return Key{static_cast<std::int64_t>(std::floor(p.x() / cell_m)),
-               static_cast<std::int64_t>(std::floor(p.y() / cell_m)),
-               static_cast<std::int64_t>(std::floor(p.z() / cell_m))};
-  };
-  std::unordered_map<Key, std::vector<int>, KeyHash> cells;
-  for (int v = 0; v < mesh.NumVertices(); ++v) {
-    if (std::isfinite(field[U(v)]) && vertex_area[U(v)] > 0) cells[key_of(mesh.points_in_world[U(v)])].push_back(v);
-  }
-  struct Sampled {
-    std::vector<std::pair<double, double>> values;  // (field, weight)
-  };
-  std::unordered_map<Key, Sampled, KeyHash> sampled;
-  for (const auto& [key, members] : cells) {
-    Sampled s;
-    const size_t stride = std::max<size_t>(1, members.size() / kPerCell);
-    double area_all = 0, area_kept = 0;
-    for (int v : members) area_all += vertex_area[U(v)];
-    for (size_t i = 0; i < members.size(); i += stride) {
-      s.values.emplace_back(field[U(members[i])], vertex_area[U(members[i])]);
-      area_kept += vertex_area[U(members[i])];
-    }
-    for (auto& value : s.values) value.second *= area_all / area_kept;
-    sampled.emplace(key, std::move(s));
-  }
-  std::unordered_map<Key, double, KeyHash> cell_background;
-  std::vector<std::pair<double, double>> gathered;
-  const int reach = 2;  // cells within radius of the cell centre
-  for (const auto& [key, members] : cells) {
-    (void)members;
-    gathered.clear();
-    for (std::int64_t dx = -reach; dx <= reach; ++dx) {
-      for (std::int64_t dy = -reach; dy <= reach; ++dy) {
-        for (std::int64_t dz = -reach; dz <= reach; ++dz) {
-          if (dx * dx + dy * dy + dz * dz > (reach + 1) * (reach + 1) - 1) continue;  // a ball
-          const auto it = sampled.find(Key{key.x + dx, key.y + dy, key.z + dz});
-          if (it == sampled.end()) continue;
-          gathered.insert(gathered.end(), it->second.values.begin(), it->second.values.end());
-        }
-      }
-    }
-    cell_background[key] = WeightedMedian(gathered);
-  }
-  std::vector<double> background(U(mesh.NumVertices()), kNaN);
-  for (const auto& [key, members] : cells) {
-    const double b = cell_background[key];
-    for (int v : members) background[U(v)] = b;
-  }
-  return background;
-}
 
 // Everything one measurement needs, shared over candidates.
 struct Context {
@@ -347,7 +256,8 @@ double RobustPeak(const Context& c, const std::vector<int>& region, double fallb
 }
 
 // Measures one candidate of one kind (the field oriented so that the spot is a maximum).
-// Returns false with `reason` when it is not a spot.
+// Returns false with `reason` when it is not a spot; m->region then holds the region it grew
+// (so that the caller does not seed it again), in_region cleared.
 struct Measured {
   std::vector<int> region;
   double reference = kNaN;  // oriented
@@ -379,14 +289,12 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     if (!absolute && !surrounding && !(peak - reference >= o.min_delta_k)) {
       *reason = "ΔT to the reference below min_delta_k";
       for (int v : m->region) (*in_region)[U(v)] = 0;
-      m->region.clear();
       return false;
     }
     const bool small = GrowRegion(c, seed, level, &m->region, in_region);
     if (!small) {
       *reason = "region larger than max_area_m2: a surface at another temperature, not a spot";
       for (int v : m->region) (*in_region)[U(v)] = 0;
-      m->region.clear();
       return false;
     }
     faces.clear();
@@ -424,7 +332,6 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
                 core::RoundedNumber(m->iso.area_m2 > 0 ? m->ring.area_m2 / m->iso.area_m2 : 0) +
                 "x the region's < min_ring_area_ratio)";
       for (int v : m->region) (*in_region)[U(v)] = 0;
-      m->region.clear();
       return false;
     }
     m->reference = m->ring.reference;
@@ -454,7 +361,6 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
     return true;
   }
   for (int v : m->region) (*in_region)[U(v)] = 0;
-  m->region.clear();
   return false;
 }
 
@@ -675,16 +581,23 @@ SpotDetection SpotFinder::Detect() const {
       double reference;
     };
     std::vector<Seed> seeds;
+    // Further peaks of a component (two hot joints on one warm busbar are one component):
+    // its vertices that are the highest of their neighbours and stand min_delta_k out of
+    // their own local background, measured after every component's first seed (kDelta).
+    std::vector<Seed> more_seeds;
     std::vector<char> seen(field.size(), 0);
+    std::vector<int> members;
     for (size_t start = 0; start < field.size(); ++start) {
       if (!candidate[start] || seen[start]) continue;
       int peak = static_cast<int>(start);
       double reference = std::numeric_limits<double>::infinity();
       std::vector<int> stack = {peak};
       seen[start] = 1;
+      members.clear();
       while (!stack.empty()) {
         const int v = stack.back();
         stack.pop_back();
+        members.push_back(v);
         if (field[U(v)] > field[U(peak)]) peak = v;
         if (std::isfinite(oriented_background[U(v)])) reference = std::min(reference, oriented_background[U(v)]);
         for (int i = graph.offsets[U(v)]; i < graph.offsets[U(v) + 1]; ++i) {
@@ -701,19 +614,38 @@ SpotDetection SpotFinder::Detect() const {
                            : std::isfinite(oriented_background[U(peak)]) ? oriented_background[U(peak)]
                                                                           : reference;
       seeds.push_back({field[U(peak)] - reference, peak, first_reference});
+      // Own local background, also against ambient: a surface that is all above ambient
+      // (every vertex of a uniform wall the highest of its neighbours) seeds nothing more.
+      if (options.detect != SpotOptions::Detect::kDelta) continue;
+      for (int v : members) {
+        const double own = oriented_background[U(v)];
+        if (v == peak || !std::isfinite(own) || !(field[U(v)] - own >= options.min_delta_k)) continue;
+        bool highest = true;
+        for (int i = graph.offsets[U(v)]; i < graph.offsets[U(v) + 1] && highest; ++i) {
+          highest = !(field[U(graph.neighbours[U(i)])] > field[U(v)]);
+        }
+        const double first = options.reference == SpotOptions::Reference::kAmbient ? ambient : own;
+        if (highest) more_seeds.push_back({field[U(v)] - own, v, first});
+      }
     }
+    std::sort(more_seeds.begin(), more_seeds.end(), [](const Seed& a, const Seed& b) { return a.strength > b.strength; });
     std::sort(seeds.begin(), seeds.end(), [](const Seed& a, const Seed& b) { return a.strength > b.strength; });
     result.candidates += static_cast<int>(seeds.size());
 
-    std::vector<char> claimed(field.size(), 0), in_region(field.size(), 0);
+    // claimed: in an accepted spot; visited: in a region measured (a rejected one's too) and
+    // no higher than its seed, so that a further peak inside it is not measured again.
+    std::vector<char> claimed(field.size(), 0), visited(field.size(), 0), in_region(field.size(), 0);
     std::vector<Spot> spots;
     int measured = 0;
-    for (const Seed& seed : seeds) {
+    const size_t first_seeds = seeds.size();
+    seeds.insert(seeds.end(), more_seeds.begin(), more_seeds.end());
+    for (size_t k = 0; k < seeds.size(); ++k) {
+      const Seed& seed = seeds[k];
       // A candidate that does not stand min_delta_k out of even its most favourable local
       // background is noise or texture: not measured (thousands of them on a noisy model
       // would each flood the surface around them), counted in `candidates` only.
       if (options.detect == SpotOptions::Detect::kDelta && seed.strength < options.min_delta_k) continue;
-      if (claimed[U(seed.peak)]) continue;
+      if (claimed[U(seed.peak)] || (k >= first_seeds && visited[U(seed.peak)])) continue;
       if (measured == options.max_candidates) {
         ++result.unmeasured;
         continue;
@@ -721,7 +653,11 @@ SpotDetection SpotFinder::Detect() const {
       ++measured;
       Measured m;
       std::string reason;
-      if (!MeasureCandidate(c, seed.peak, seed.reference, ambient, absolute_level, &in_region, &m, &reason)) {
+      const bool accepted = MeasureCandidate(c, seed.peak, seed.reference, ambient, absolute_level, &in_region, &m, &reason);
+      // Only what stands no higher than the seed: a flood from a weak seed at a low level can
+      // sweep over a stronger peak of another component, which keeps its own measurement.
+      for (int v : m.region) visited[U(v)] |= field[U(v)] <= field[U(seed.peak)];
+      if (!accepted) {
         result.rejected.push_back({hot, mesh.temperature_c[U(seed.peak)], mesh.points_in_world[U(seed.peak)], reason});
         continue;
       }

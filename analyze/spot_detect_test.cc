@@ -168,6 +168,28 @@ TEST(SpotDetectTest, ASpotNarrowerThanThreePixelsIsUnderResolved) {
   EXPECT_TRUE(DetectSpots(mesh, lenient).spots.at(0).resolved);
 }
 
+// Two hot joints on one slightly warm busbar (1.5 K above the wall: a candidate, not a
+// spot): one connected component of candidate vertices holding two peaks. Each is a spot.
+TEST(SpotDetectTest, TwoSpotsOnOneWarmStripAreBothFound) {
+  const ThermalMesh mesh = Rectangle(1.6, 0.8, 0.005, [&](double x, double y) {
+    const double bar = std::abs(y) < 0.03 && std::abs(x) < 0.7 ? 1.5 : 0.0;
+    const double joint1 = Plateau(std::hypot(x + 0.5, y) - 0.03, 20, 50, 0.005) - 20;
+    const double joint2 = Plateau(std::hypot(x - 0.5, y) - 0.03, 20, 45, 0.005) - 20;
+    return 20 + std::max({bar, joint1, joint2});
+  });
+  SpotOptions ambient;
+  ambient.reference = SpotOptions::Reference::kAmbient;
+  ambient.ambient_c = 20;
+  for (const SpotOptions& options : {SpotOptions(), ambient}) {
+    const SpotDetection d = DetectSpots(mesh, options);
+    ASSERT_EQ(d.spots.size(), 2u);
+    EXPECT_NEAR(d.spots[0].centroid_in_world.x(), -0.5, 0.002);
+    EXPECT_NEAR(d.spots[1].centroid_in_world.x(), 0.5, 0.002);
+    EXPECT_NEAR(d.spots[1].peak_c, 45, 0.5);
+    for (const Spot& s : d.spots) EXPECT_NEAR(s.area_m2, kPi * 0.03 * 0.03, 0.05 * kPi * 0.03 * 0.03);
+  }
+}
+
 TEST(SpotDetectTest, HotAndColdSpotsAreOrderedAndNamed) {
   const ThermalMesh mesh = Plane(2.0, 0.01, [&](double x, double y) {
     const double hot1 = Plateau(std::hypot(x + 0.5, y) - 0.08, 20, 30, 0.01) - 20;
