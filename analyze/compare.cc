@@ -53,20 +53,6 @@ Eigen::Vector3d ClosestBarycentric(const Eigen::Vector3d& p, const Eigen::Vector
   return {1 - v - w, v, w};
 }
 
-// The smallest value whose cumulative weight reaches fraction × total; `pairs` (value,
-// weight) is sorted in place.
-double WeightedQuantile(std::vector<std::pair<double, double>>* pairs, double fraction) {
-  std::sort(pairs->begin(), pairs->end());
-  double total = 0;
-  for (const auto& p : *pairs) total += p.second;
-  double cumulative = 0;
-  for (const auto& p : *pairs) {
-    cumulative += p.second;
-    if (cumulative >= fraction * total) return p.first;
-  }
-  return pairs->empty() ? 0 : pairs->back().first;
-}
-
 }  // namespace
 
 std::string CompareOptions::Check() const {
@@ -188,8 +174,8 @@ TemperatureDifference MapDifference(const ThermalMesh& before, const ThermalMesh
   }
   if (result.compared_area_m2 > 0) {
     result.mean_k = sum / result.compared_area_m2;
-    result.median_k = WeightedQuantile(&weighted, 0.5);
-    result.p95_abs_k = WeightedQuantile(&weighted_abs, 0.95);
+    result.median_k = WeightedMedian(weighted);
+    result.p95_abs_k = WeightedQuantile(weighted_abs, 0.95);
   }
   return result;
 }

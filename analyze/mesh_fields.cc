@@ -14,8 +14,7 @@ size_t U(int i) { return static_cast<size_t>(i); }
 
 }  // namespace
 
-// Area-weighted median of (value, weight) pairs; NaN for none. Reorders `samples`.
-double WeightedMedian(std::vector<std::pair<double, double>>& samples) {
+double WeightedQuantile(std::vector<std::pair<double, double>>& samples, double fraction) {
   if (samples.empty()) return kNaN;
   std::sort(samples.begin(), samples.end());
   double total = 0;
@@ -23,7 +22,7 @@ double WeightedMedian(std::vector<std::pair<double, double>>& samples) {
   double sum = 0;
   for (const auto& s : samples) {
     sum += s.second;
-    if (sum >= 0.5 * total) return s.first;
+    if (sum >= fraction * total) return s.first;
   }
   return samples.back().first;
 }

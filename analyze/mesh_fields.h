@@ -9,8 +9,14 @@
 
 namespace hw::analyze {
 
-// Area-weighted median of (value, weight) pairs; NaN for none. Reorders `samples`.
-double WeightedMedian(std::vector<std::pair<double, double>>& samples);
+// The smallest value of (value, weight) pairs whose cumulative weight reaches fraction × the
+// total; NaN for none. Sorts `samples`.
+double WeightedQuantile(std::vector<std::pair<double, double>>& samples, double fraction);
+
+// Area-weighted median: WeightedQuantile at 0.5.
+inline double WeightedMedian(std::vector<std::pair<double, double>>& samples) {
+  return WeightedQuantile(samples, 0.5);
+}
 
 // One third of the area of every face around each vertex, m².
 std::vector<double> VertexAreas(const ThermalMesh& mesh);

@@ -57,9 +57,11 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
     size_t truth, spot;
   };
   std::vector<size_t> considered, matchable;
+  std::vector<char> scored(truth.size(), 0);
   for (size_t t = 0; t < truth.size(); ++t) {
     const double f = truth[t].observed_fraction;
-    if (!observed_only || f > min_observed_fraction) considered.push_back(t);
+    scored[t] = !observed_only || f > min_observed_fraction;
+    if (scored[t]) considered.push_back(t);
     if (!observed_only || f != 0) matchable.push_back(t);  // -1: not given
   }
   std::vector<Pair> pairs;
@@ -117,7 +119,7 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
     if (!used.count(s)) score.false_spots.push_back(spots[s].id);
   }
   for (size_t t : matchable) {
-    if (spot_of_truth[t] >= 0 && std::find(considered.begin(), considered.end(), t) == considered.end()) {
+    if (spot_of_truth[t] >= 0 && !scored[t]) {
       score.partly_observed.emplace_back(truth[t].id, spots[static_cast<size_t>(spot_of_truth[t])].id);
     }
   }

@@ -178,7 +178,7 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
         const Eigen::Vector3d side = normal.cross(along);
         const double along_m = across_m / std::max(cos_angle, 0.1);
         part.rays.push_back(Ray{map.points[i], (along * along_m).cast<float>(), (side * across_m).cast<float>(),
-                                static_cast<float>(confidence), static_cast<float>(surface),
+                                static_cast<float>(std::sqrt(across_m * along_m)), static_cast<float>(confidence), static_cast<float>(surface),
                                 static_cast<float>(apparent), static_cast<float>(emissivity_at_angle),
                                 static_cast<int32_t>(i)});
         part.confidence_sum += confidence;

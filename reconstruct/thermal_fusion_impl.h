@@ -62,12 +62,13 @@ struct FrameSum {
   int32_t pixel = -1;   // its ray's pixel
 };
 
-// A fused ray, ready to splat: its hit and the half-axes of its pixel's footprint on the
-// surface (world frame, m): across the ray, distance / f; along the surface's slope, that
-// divided by cos θ.
+// A fused ray, ready to splat: its hit and the axes of its pixel's footprint on the surface
+// (world frame, m): across the ray, distance / f; along the surface's slope, that divided by
+// cos θ; footprint_m = √(across · along), the pixel's size there.
 struct Ray {
   Eigen::Vector3f point_in_world;
   Eigen::Vector3f footprint_u, footprint_v;
+  float footprint_m;
   float confidence, surface_c, apparent_c;
   float emissivity;  // at the viewing angle
   int32_t pixel;     // y · width + x

@@ -158,7 +158,7 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
         s.weight_confidence += wc;
         s.surface += wc * ray.surface_c;
         s.apparent += wc * ray.apparent_c;
-        s.footprint += wc * std::sqrt(ray.footprint_u.norm() * ray.footprint_v.norm());
+        s.footprint += wc * ray.footprint_m;
         if (wc > s.best) {
           s.best = wc;
           s.pixel = ray.pixel;
