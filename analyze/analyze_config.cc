@@ -106,6 +106,16 @@ void ParseSeverity(const YamlReader& reader, const YAML::Node& list, std::vector
   }
 }
 
+void ParseReflections(const YamlReader& reader, const YAML::Node& node, ReflectionOptions* o) {
+  const Fields f = reader.Mapping(node, "reflections",
+                                  {"check", "operator_radius_m", "operator_max_c", "min_fraction", "max_faces"});
+  if (f.Has("check")) o->check = ReadBool(reader, f.Required("check"), f.Path("check"));
+  if (f.Has("operator_radius_m")) o->operator_radius_m = reader.Number(f.Required("operator_radius_m"), f.Path("operator_radius_m"));
+  if (f.Has("operator_max_c")) o->operator_max_c = reader.Number(f.Required("operator_max_c"), f.Path("operator_max_c"));
+  if (f.Has("min_fraction")) o->min_fraction = reader.Number(f.Required("min_fraction"), f.Path("min_fraction"));
+  if (f.Has("max_faces")) o->max_faces = reader.Integer(f.Required("max_faces"), f.Path("max_faces"));
+}
+
 Eigen::Vector3d Vector(const YamlReader& reader, const Fields& f, const char* name) {
   const std::vector<double> v = reader.NumberList(f.Required(name), f.Path(name), 3);
   return Eigen::Vector3d(v[0], v[1], v[2]);
@@ -164,6 +174,7 @@ void ParseImages(const YamlReader& reader, const YAML::Node& node, AnalyzeConfig
 std::string AnalyzeConfig::Check() const {
   if (field.empty()) return "field: must not be empty";
   if (const std::string p = spots.Check(); !p.empty()) return "spots." + p;
+  if (const std::string p = reflections.Check(); !p.empty()) return p;
   if (width < 16 || width > 8192) return core::OptionFail("images.width", width, "in [16, 8192]");
   if (height < 16 || height > 8192) return core::OptionFail("images.height", height, "in [16, 8192]");
   if (samples_per_pixel != 1 && samples_per_pixel != 4 && samples_per_pixel != 9 && samples_per_pixel != 16) {
@@ -212,11 +223,12 @@ AnalyzeConfig ParseAnalyzeConfig(const std::string& yaml_text, const std::filesy
   const YamlReader reader(path_for_errors);
   const YAML::Node root = reader.LoadMapping(yaml_text);
   reader.CheckVersion(root, 1);
-  const Fields top = reader.Mapping(root, "", {"version", "field", "spots", "severity", "images"});
+  const Fields top = reader.Mapping(root, "", {"version", "field", "spots", "severity", "reflections", "images"});
   AnalyzeConfig c;
   if (top.Has("field")) c.field = reader.String(top.Required("field"), "field");
   if (top.Has("spots")) ParseSpots(reader, top.Required("spots"), &c.spots);
   if (top.Has("severity")) ParseSeverity(reader, top.Required("severity"), &c.spots.severity);
+  if (top.Has("reflections")) ParseReflections(reader, top.Required("reflections"), &c.reflections);
   if (top.Has("images")) ParseImages(reader, top.Required("images"), &c);
   if (const std::string problem = c.Check(); !problem.empty()) {
     // spots.severity[i] is the file's severity[i].

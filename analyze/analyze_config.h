@@ -21,6 +21,11 @@
 //     min_views: 3                  # reconstruct's meshes: seen in >= 3 thermal frames
 //     min_views_ratio: 0.5          # ... and in >= half the frames that saw its surroundings
 //     max_view_spread_ratio: 0.5    # ... whose spread across views is < 0.5 |ΔT|
+//   reflections:                    # is a spot a reflection? (analyze/spot_reflection.h)
+//     check: true
+//     operator_radius_m: 0.6        # the thermographer's body around the camera
+//     operator_max_c: 37            # warmest a person looks
+//     min_fraction: 0.5
 //   severity:                       # replaces the NETA table
 //     - {name: minor, min_delta_k: 1, action: "Monitor"}
 //     - {name: serious, min_delta_k: 10, action: "Repair"}
@@ -48,6 +53,7 @@
 #include <Eigen/Core>
 
 #include "analyze/spot_detect.h"
+#include "analyze/spot_reflection.h"
 
 namespace hw::analyze {
 
@@ -63,6 +69,7 @@ struct UserView {
 struct AnalyzeConfig {
   std::string field = "temperature_c";
   SpotOptions spots;
+  ReflectionOptions reflections;
   int width = 1280;               // pixels, [16, 8192]
   int height = 960;               // pixels, [16, 8192]
   int samples_per_pixel = 4;      // 1, 4, 9 or 16

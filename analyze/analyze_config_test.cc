@@ -37,6 +37,12 @@ TEST(AnalyzeConfigTest, ReadsEveryKey) {
       "severity:\n"
       "  - {name: minor, min_delta_k: 1, action: Monitor}\n"
       "  - {name: serious, min_delta_k: 10}\n"
+      "reflections:\n"
+      "  check: false\n"
+      "  operator_radius_m: 0.8\n"
+      "  operator_max_c: 35\n"
+      "  min_fraction: 0.7\n"
+      "  max_faces: 500\n"
       "images:\n"
       "  width: 640\n"
       "  height: 480\n"
@@ -66,6 +72,11 @@ TEST(AnalyzeConfigTest, ReadsEveryKey) {
   ASSERT_EQ(c.spots.severity.size(), 2u);
   EXPECT_EQ(c.spots.severity[0].action, "Monitor");
   EXPECT_EQ(c.spots.severity[1].name, "serious");
+  EXPECT_FALSE(c.reflections.check);
+  EXPECT_EQ(c.reflections.operator_radius_m, 0.8);
+  EXPECT_EQ(c.reflections.operator_max_c, 35);
+  EXPECT_EQ(c.reflections.min_fraction, 0.7);
+  EXPECT_EQ(c.reflections.max_faces, 500);
   EXPECT_EQ(c.width, 640);
   EXPECT_EQ(c.samples_per_pixel, 9);
   EXPECT_EQ(c.palette, "rainbow-inverted");
@@ -96,6 +107,9 @@ TEST(AnalyzeConfigTest, ErrorsNameKeyAndLine) {
                 .find("differ from eye"),
             std::string::npos);
   EXPECT_NE(ErrorOf("version: 1\nimages:\n  closeups: maybe\n").find("images.closeups"), std::string::npos);
+  EXPECT_NE(ErrorOf("version: 1\nreflections:\n  mirror: true\n").find("mirror"), std::string::npos);
+  EXPECT_NE(ErrorOf("version: 1\nreflections:\n  operator_radius_m: -1\n").find("reflections.operator_radius_m"),
+            std::string::npos);
   const std::string e = ErrorOf("version: 1\nspots:\n  detect: absolute\n  hot_above_c: 50\n");
   EXPECT_NE(e.find("cold_below_c"), std::string::npos) << e;
   EXPECT_NE(e.find("analyze.yaml"), std::string::npos) << e;

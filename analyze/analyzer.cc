@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "analyze/annotate.h"
@@ -14,6 +15,7 @@
 #include "analyze/views.h"
 #include "core/atomic_file.h"
 #include "core/json.h"
+#include "core/strings.h"
 
 namespace hw::analyze {
 namespace {
@@ -112,11 +114,38 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     if (!std::isfinite(stats.median_c)) result.warnings.push_back("no vertex has a temperature: nothing to measure");
   }
   const bool measurable = has_temperature && std::isfinite(stats.median_c);
+  // One BVH for the reflection check and the images.
+  std::unique_ptr<MeshRenderer> bvh;
+  const bool check_reflections = measurable && config.reflections.check && !mesh.view_m.empty();
+  if (inputs.write_images || check_reflections) {
+    bvh = std::make_unique<MeshRenderer>(mesh);
+    result.timings.bvh_s = bvh->build_seconds();
+  }
   if (measurable) {
     const auto t = Clock::now();
     const SpotFinder finder(mesh, config.spots);
     result.detection = finder.Detect();
     result.timings.detect_s = Seconds(t);
+    if (check_reflections) {
+      const auto tr = Clock::now();
+      CheckReflections(mesh, *bvh, config.reflections, &result.detection->spots);
+      result.timings.reflections_s = Seconds(tr);
+      for (const Spot& s : result.detection->spots) {
+        if (!s.possible_reflection) continue;
+        const std::string source =
+            s.reflection_source == "operator"
+                ? core::StringPrintf("the thermographer's body (the surface was seen %.0f° from head-on and the spot "
+                                     "peaks at %.1f °C, no warmer than a person)",
+                                     s.incidence_deg, s.peak_c)
+                : core::StringPrintf("a %.1f °C surface at (%.2f, %.2f, %.2f) m", s.reflection_source_c,
+                                     s.reflection_source_in_world.x(), s.reflection_source_in_world.y(),
+                                     s.reflection_source_in_world.z());
+        result.warnings.push_back(core::StringPrintf(
+            "%s may be a reflection: over %.0f %% of it the mirror direction of the views meets %s; re-image it "
+            "from another angle before acting",
+            s.id.c_str(), 100 * s.reflection_fraction, source.c_str()));
+      }
+    }
     for (const Spot& s : result.detection->spots) {
       if (s.resolved) continue;
       char text[320];
@@ -160,8 +189,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
   }
 
   if (inputs.write_images) {
-    const MeshRenderer renderer(mesh);
-    result.timings.bvh_s = renderer.build_seconds();
+    const MeshRenderer& renderer = *bvh;
     const ViewSelectOptions select = SelectOptions(config);
     std::vector<NamedView> views = ConfiguredViews(mesh, config);
     struct CloseUp {
@@ -424,6 +452,13 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
     std::vector<std::string> false_spots;
     for (const std::string& id : r.truth->false_spots) false_spots.push_back(core::JsonString(id));
     t.Add("false_spot_ids", core::JsonArray(false_spots, "    "));
+    const auto ids = [](const std::vector<std::string>& list) {
+      std::vector<std::string> quoted;
+      for (const std::string& id : list) quoted.push_back(core::JsonString(id));
+      return core::JsonArray(quoted, "    ");
+    };
+    t.Add("false_flagged_as_reflections", ids(r.truth->false_flagged_as_reflections));
+    t.Add("found_flagged_as_reflections", ids(r.truth->found_flagged_as_reflections));
     std::vector<std::string> partly;
     for (const auto& [truth_id, spot_id] : r.truth->partly_observed) {
       partly.push_back(core::JsonObject().String("truth", truth_id).String("spot", spot_id).str());
@@ -433,6 +468,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
   }
   core::JsonObject timings;
   timings.Number("detect_s", r.timings.detect_s)
+      .Number("reflections_s", r.timings.reflections_s)
       .Number("bvh_build_s", r.timings.bvh_s)
       .Number("render_s", r.timings.render_s)
       .Int("renders", r.timings.renders)
@@ -472,7 +508,7 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
       std::snprintf(line, sizeof line, "  %-4s %8.1f %7.1f %7.1f %8.1f ±%-6.1f %6.1f ±%-5.1f %6.1f ±%-5.1f %s%s %s\n",
                     x.id.c_str(), x.peak_c, x.reference_c, x.delta_k, 1e4 * x.area_m2, 1e4 * x.area_sigma_m2,
                     100 * x.length_m, 100 * x.length_sigma_m, 100 * x.width_m, 100 * x.width_sigma_m, px,
-                    x.resolved ? " " : "!", x.severity.c_str());
+                    x.resolved ? " " : "!", (x.severity + (x.possible_reflection ? " (reflection?)" : "")).c_str());
       s << line;
     }
   } else {
@@ -481,6 +517,10 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
   if (r.truth) {
     s << "  truth: " << r.truth->found << " found, " << r.truth->missed << " missed, " << r.truth->false_spots.size()
       << " false";
+    if (!r.truth->false_flagged_as_reflections.empty() || !r.truth->found_flagged_as_reflections.empty()) {
+      s << " (flagged as possible reflections: " << r.truth->false_flagged_as_reflections.size() << " false, "
+        << r.truth->found_flagged_as_reflections.size() << " found)";
+    }
     for (const auto& [truth_id, spot_id] : r.truth->partly_observed) s << ", " << spot_id << " on " << truth_id << " (seen in part)";
     s << "; max |error| area " << FixedText(100 * r.truth->max_abs_area_error, 2) << " %, length "
       << FixedText(100 * r.truth->max_abs_length_error, 2) << " %, width " << FixedText(100 * r.truth->max_abs_width_error, 2)

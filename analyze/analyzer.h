@@ -33,7 +33,7 @@ struct AnalyzeImage {
 };
 
 struct AnalyzeTimings {
-  double detect_s = 0, bvh_s = 0, render_s = 0, compose_s = 0, write_s = 0, total_s = 0;
+  double detect_s = 0, reflections_s = 0, bvh_s = 0, render_s = 0, compose_s = 0, write_s = 0, total_s = 0;
   int renders = 0;
 };
 

@@ -178,6 +178,24 @@ void CullBackFaces(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// One ray for rtcIntersect1 / rtcOccluded1: origin + t·direction, t in [t_near, t_far].
+RTCRay SingleRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_near, double t_far) {
+  RTCRay ray;
+  ray.org_x = static_cast<float>(origin.x());
+  ray.org_y = static_cast<float>(origin.y());
+  ray.org_z = static_cast<float>(origin.z());
+  ray.dir_x = static_cast<float>(direction.x());
+  ray.dir_y = static_cast<float>(direction.y());
+  ray.dir_z = static_cast<float>(direction.z());
+  ray.tnear = static_cast<float>(t_near);
+  ray.tfar = static_cast<float>(t_far);
+  ray.time = 0;
+  ray.mask = 0xffffffffU;
+  ray.id = 0;
+  ray.flags = 0;
+  return ray;
+}
+
 }  // namespace
 
 struct MeshRenderer::Impl {
@@ -396,24 +414,33 @@ bool MeshRenderer::Unoccluded(const Eigen::Vector3d& from_in_world, const Eigen:
   if (length <= 2 * epsilon_m) return true;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRay ray;
-  ray.org_x = static_cast<float>(from_in_world.x());
-  ray.org_y = static_cast<float>(from_in_world.y());
-  ray.org_z = static_cast<float>(from_in_world.z());
-  ray.dir_x = static_cast<float>(direction.x());
-  ray.dir_y = static_cast<float>(direction.y());
-  ray.dir_z = static_cast<float>(direction.z());
   // Distances in units of the segment: the direction is not normalised.
-  ray.tnear = static_cast<float>(epsilon_m / length);
-  ray.tfar = static_cast<float>(1.0 - epsilon_m / length);
-  ray.time = 0;
-  ray.mask = 0xffffffffU;
-  ray.id = 0;
-  ray.flags = 0;
+  RTCRay ray = SingleRay(from_in_world, direction, epsilon_m / length, 1.0 - epsilon_m / length);
   rtcOccluded1(impl_->scene, &context, &ray);
   impl_->ThrowIfError();
   // Embree sets tfar to −inf when it finds a hit.
   return ray.tfar >= 0;
+}
+
+MeshRenderer::Hit MeshRenderer::Intersect(const Eigen::Vector3d& origin_in_world,
+                                          const Eigen::Vector3d& direction_in_world, double t_min_m,
+                                          double t_max_m) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit query;
+  query.ray = SingleRay(origin_in_world, direction_in_world, t_min_m, t_max_m);
+  query.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  query.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  query.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &query);
+  impl_->ThrowIfError();
+  Hit hit;
+  if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  hit.face = static_cast<int>(query.hit.primID);
+  hit.bary_u = query.hit.u;
+  hit.bary_v = query.hit.v;
+  hit.t_m = query.ray.tfar;
+  return hit;
 }
 
 }  // namespace hw::analyze

@@ -123,6 +123,17 @@ class MeshRenderer {
   bool Unoccluded(const Eigen::Vector3d& from_in_world, const Eigen::Vector3d& to_in_world,
                   double epsilon_m = 1e-4) const;
 
+  // The first surface along origin + t·direction (unit direction, world frame) with t in
+  // (t_min_m, t_max_m), back faces included: face index (into ThermalMesh::faces),
+  // barycentric weights of its vertices 1 and 2, and t; face −1 for a miss.
+  struct Hit {
+    int face = -1;
+    float bary_u = 0, bary_v = 0;
+    double t_m = 0;
+  };
+  Hit Intersect(const Eigen::Vector3d& origin_in_world, const Eigen::Vector3d& direction_in_world, double t_min_m,
+                double t_max_m) const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -44,6 +44,15 @@ struct Spot {
   double blur_sigma_m = kUnknown;  // σ_b = footprint · √(1/12 + optics_psf_px²)
   double width_px = kUnknown;      // width_m / footprint_m: thermal pixels across the spot
   bool resolved = true;       // width_px >= min_resolved_px (true when unknown)
+  // The reflection check (analyze/spot_reflection.h); NaN / "" when not checked (no view
+  // vectors in the mesh, or the check off).
+  double incidence_deg = kUnknown;        // area-weighted angle between the view and the normal
+  double reflection_fraction = kUnknown;  // of the checked area, mirror meeting a source
+  double reflection_unseen_fraction = kUnknown;  // ... meeting surface without temperature
+  std::string reflection_source;          // "operator", "surface" or "" (none)
+  Eigen::Vector3d reflection_source_in_world = Eigen::Vector3d::Constant(kUnknown);  // m
+  double reflection_source_c = kUnknown;  // the surface source's mean temperature, °C
+  bool possible_reflection = false;       // reflection_fraction >= min_fraction
   // Severity from the configured table.
   std::string severity;
   std::string action;

@@ -113,10 +113,13 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
       m.length_error = m.width_error = std::numeric_limits<double>::quiet_NaN();
       m.length_error_m = m.width_error_m = std::numeric_limits<double>::quiet_NaN();
     }
+    if (spot.possible_reflection) score.found_flagged_as_reflections.push_back(spot.id);
     score.matches.push_back(m);
   }
   for (size_t s = 0; s < spots.size(); ++s) {
-    if (!used.count(s)) score.false_spots.push_back(spots[s].id);
+    if (used.count(s)) continue;
+    score.false_spots.push_back(spots[s].id);
+    if (spots[s].possible_reflection) score.false_flagged_as_reflections.push_back(spots[s].id);
   }
   for (size_t t : matchable) {
     if (spot_of_truth[t] >= 0 && !scored[t]) {

@@ -61,6 +61,11 @@ struct TruthMatch {
 struct TruthScore {
   std::vector<TruthMatch> matches;     // one per truth spot considered
   std::vector<std::string> false_spots;  // detections matching no truth spot
+  // Of those, the ones the reflection check flagged (Spot::possible_reflection): reported
+  // with the right diagnosis, but still false spots.
+  std::vector<std::string> false_flagged_as_reflections;
+  // Found planted spots the reflection check flagged: a true spot wrongly suspected.
+  std::vector<std::string> found_flagged_as_reflections;
   // Detections matched to a truth spot the scan saw too little of to be scored
   // (observed_only, 0 < observed_fraction <= min_observed_fraction): neither found nor
   // false; (truth id, spot id).

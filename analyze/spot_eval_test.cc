@@ -50,5 +50,19 @@ TEST(SpotEvalTest, ADetectionOnAPartlyObservedSpotIsNotFalse) {
   EXPECT_EQ(all.false_spots, (std::vector<std::string>{"H4"}));
 }
 
+// Spots flagged as possible reflections are still scored as found or false; the score
+// says which of each were flagged (a found one is a true spot wrongly suspected).
+TEST(SpotEvalTest, FlaggedReflectionsAreCountedOnBothSides) {
+  const std::vector<TruthSpot> truth = {Truth("a", 0, 1.0), Truth("b", 1, 1.0)};
+  std::vector<Spot> spots = {At("H1", 0.0), At("H2", 1.0), At("H3", 3.0), At("H4", 4.0)};
+  spots[1].possible_reflection = true;
+  spots[3].possible_reflection = true;
+  const TruthScore score = ScoreAgainstTruth(spots, truth, false);
+  EXPECT_EQ(score.found, 2);
+  EXPECT_EQ(score.false_spots, (std::vector<std::string>{"H3", "H4"}));
+  EXPECT_EQ(score.false_flagged_as_reflections, (std::vector<std::string>{"H4"}));
+  EXPECT_EQ(score.found_flagged_as_reflections, (std::vector<std::string>{"H2"}));
+}
+
 }  // namespace
 }  // namespace hw::analyze

@@ -224,6 +224,15 @@ ThermalMesh MakeThermalMesh(const core::PlyMesh& ply, const std::filesystem::pat
   mesh.views = OptionalField(ply, "temperature_views", kept);
   mesh.std_c = OptionalField(ply, "temperature_std_c", kept);
   mesh.footprint_m = OptionalField(ply, "temperature_footprint_m", kept);
+  {
+    const std::vector<double> vx = OptionalField(ply, "temperature_view_x", kept);
+    const std::vector<double> vy = OptionalField(ply, "temperature_view_y", kept);
+    const std::vector<double> vz = OptionalField(ply, "temperature_view_z", kept);
+    if (!vx.empty() && !vy.empty() && !vz.empty()) {
+      mesh.view_m.resize(kept.size());
+      for (size_t i = 0; i < kept.size(); ++i) mesh.view_m[i] = Eigen::Vector3d(vx[i], vy[i], vz[i]);
+    }
+  }
 
   // Area-weighted normals (the cross product's length is twice the area).
   mesh.normals.assign(kept.size(), Eigen::Vector3d::Zero());

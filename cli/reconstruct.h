@@ -95,7 +95,8 @@ struct ReconstructCommandResult {
 
 // Runs the whole job: opens the scan, reconstructs (fusing the thermal stream when there is
 // one: model.ply then carries temperature_c, temperature_apparent_c, temperature_confidence,
-// temperature_views, temperature_std_c and temperature_footprint_m per vertex, NaN / 0 views
+// temperature_views, temperature_std_c, temperature_footprint_m and temperature_view_x/_y/_z
+// per vertex, NaN / 0 views
 // where unobserved),
 // writes out_folder/trajectory.txt,
 // model.ply and reconstruct.json (each atomically; the folder is marked incomplete until all

@@ -141,6 +141,11 @@ void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::Ply
   ply.AddProperty("temperature_views", core::PlyType::kUInt16, to_double(t.views));
   ply.AddProperty("temperature_std_c", core::PlyType::kFloat32, to_double(t.std_c));
   ply.AddProperty("temperature_footprint_m", core::PlyType::kFloat32, to_double(t.footprint_m));
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> component(t.view_m.size());
+    for (size_t i = 0; i < component.size(); ++i) component[i] = static_cast<double>(t.view_m[i][axis]);
+    ply.AddProperty(std::string("temperature_view_") + "xyz"[axis], core::PlyType::kFloat32, std::move(component));
+  }
 }
 
 void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,

@@ -28,7 +28,8 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
                       const core::Scan& scan, ThermalCommandResult& result);
 
 // Adds temperature_c, temperature_apparent_c, temperature_confidence, temperature_views,
-// temperature_std_c and temperature_footprint_m (per vertex of `ply`, in that order) from `t`.
+// temperature_std_c, temperature_footprint_m and temperature_view_x/_y/_z (per vertex of
+// `ply`, in that order) from `t`.
 void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::PlyMesh& ply);
 
 // Every method's error at the model vertices (already in the truth's frame) against truth.

@@ -365,6 +365,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   std::vector<Ray>& fused = m.ShadeRays(map, corrected, world_from_thermal, linear_velocity_mps,
                                        angular_velocity_radps, operating, record);
   if (m.scene_correction.enabled()) m.CorrectFrame(fused, record);
+  m.camera_in_world = world_from_thermal.translation.cast<float>();
   m.Splat(fused, record);
   record.fuse_ms = Ms(start);
   record.status = record.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;
@@ -417,6 +418,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
   out.confidence.assign(n, 0.0f);
   out.std_c.assign(n, kNaN);
   out.footprint_m.assign(n, kNaN);
+  out.view_m.assign(n, Eigen::Vector3f::Constant(kNaN));
   out.views.assign(n, 0);
   if (m.regions.empty() || m.voxel_m == 0) return out;
   const int num_threads = std::max(1, std::min<int>(internal::ResolveThreads(m.options.num_threads),
@@ -429,6 +431,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
     for (size_t i = chunk * n / num_threads; i < (chunk + 1) * n / num_threads; ++i) {
       m.Corners(points_in_world[i], voxel, weight);
       double w_sum = 0, surface = 0, apparent = 0, confidence = 0, spread = 0, views = 0, w_spread = 0, footprint = 0;
+      Eigen::Vector3d view = Eigen::Vector3d::Zero();
       for (int c = 0; c < 8; ++c) {
         if (weight[c] <= 0) continue;
         const int32_t r = m.FindRegion(voxel[c].x(), voxel[c].y(), voxel[c].z(), cached_key, cached_block);
@@ -467,6 +470,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
         confidence += w * static_cast<double>(conf);
         views += w * static_cast<double>(v);
         footprint += w * static_cast<double>(g.footprint_m);
+        view += w * Eigen::Vector3d(g.view_x, g.view_y, g.view_z);
         if (std::isfinite(sd)) {
           spread += w * static_cast<double>(sd);
           w_spread += w;
@@ -478,6 +482,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
       out.confidence[i] = static_cast<float>(confidence / w_sum);
       out.views[i] = static_cast<uint16_t>(std::max(1.0, std::round(views / w_sum)));
       out.footprint_m[i] = static_cast<float>(footprint / w_sum);
+      out.view_m[i] = (view / w_sum).cast<float>();
       if (w_spread > 0) out.std_c[i] = static_cast<float>(spread / w_spread);
     }
   });

@@ -155,6 +155,11 @@ struct PointTemperatures {
   // the views weighted by their confidence (all views, whatever the method); NaN where
   // unobserved. The thermal image's resolution at the point.
   std::vector<float> footprint_m;
+  // Where it was seen from: the vector from the point to the thermal camera's centre, world
+  // frame, m, mean over the views weighted by their confidence (all views, whatever the
+  // method); NaN where unobserved. analyze/ mirrors it about the surface normal to find
+  // what a shiny surface reflected into the camera (the operator, a hotter object).
+  std::vector<Eigen::Vector3f> view_m;
   // Frames that observed it (offline: the inlier views among the most confident kept,
   // max_views_per_region at most), 0 where unobserved.
   std::vector<uint16_t> views;

@@ -38,6 +38,10 @@ struct Region {
   // (√(across · along) of the footprint): the thermal image's resolution there, which
   // analyze/ turns into the blur's bound on a spot's width.
   float footprint_m = 0;
+  // Confidence-weighted mean of the vector from the region to the thermal camera's centre
+  // over the views, world frame, m: where the surface was seen from, which analyze/ mirrors
+  // about the normal to find what a shiny surface reflected into the camera.
+  float view_x = 0, view_y = 0, view_z = 0;
   // voxblox's capped running mean.
   float capped_surface_c = 0, capped_apparent_c = 0, capped_weight = 0;
   // The paper's online rule (confidence < 0: not yet observed).
@@ -58,6 +62,7 @@ struct Record {
 // frame: several rays of one frame are one view, not several.
 struct FrameSum {
   float weight = 0, weight_confidence = 0, surface = 0, apparent = 0, footprint = 0;
+  float view_x = 0, view_y = 0, view_z = 0;  // Σ weight·confidence·(camera − hit), m
   float best = 0;       // largest splat weight (share · confidence) so far
   int32_t pixel = -1;   // its ray's pixel
 };
@@ -150,6 +155,7 @@ struct ThermalFusion::Impl {
   SceneCorrection scene_correction;
   std::vector<SceneResidual> residual_scratch, temporal_scratch;
   int32_t fused_frames = 0;  // frames splatted so far
+  Eigen::Vector3f camera_in_world = Eigen::Vector3f::Zero();  // the frame being splatted's centre
   double last_frozen_s = -std::numeric_limits<double>::infinity();  // thermal clock
   // The latest shutter event seen by CorrectFrame (thermal clock), the first fused frame after
   // it, and whether its offset has been measured.

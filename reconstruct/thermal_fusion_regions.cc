@@ -159,6 +159,10 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
         s.surface += wc * ray.surface_c;
         s.apparent += wc * ray.apparent_c;
         s.footprint += wc * ray.footprint_m;
+        const Eigen::Vector3f view = camera_in_world - ray.point_in_world;
+        s.view_x += wc * view.x();
+        s.view_y += wc * view.y();
+        s.view_z += wc * view.z();
         if (wc > s.best) {
           s.best = wc;
           s.pixel = ray.pixel;
@@ -240,6 +244,8 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<
   const float surface = s.surface / s.weight_confidence;
   const float apparent = s.apparent / s.weight_confidence;
   const float footprint = s.footprint / s.weight_confidence;
+  const float view_x = s.view_x / s.weight_confidence, view_y = s.view_y / s.weight_confidence,
+              view_z = s.view_z / s.weight_confidence;
   const int32_t pixel = s.pixel;
   s = FrameSum();
   Region& region = regions[r];
@@ -257,8 +263,11 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, std::vector<
   region.mean_confidence += (confidence - region.mean_confidence) / n;
   // Weighted by confidence: mean_confidence · views is the sum of the views' confidences.
   const float confidence_sum = region.mean_confidence * n;
-  region.footprint_m = confidence_sum > 0 ? region.footprint_m + (footprint - region.footprint_m) * confidence / confidence_sum
-                                          : footprint;
+  const float step = confidence_sum > 0 ? confidence / confidence_sum : 1.0f;
+  region.footprint_m += (footprint - region.footprint_m) * step;
+  region.view_x += (view_x - region.view_x) * step;
+  region.view_y += (view_y - region.view_y) * step;
+  region.view_z += (view_z - region.view_z) * step;
   double capped_value = region.capped_surface_c, capped_weight = region.capped_weight;
   CappedMeanUpdate(max_weight, surface, capped_value, capped_weight);
   double capped_apparent = region.capped_apparent_c, apparent_weight = region.capped_weight;

@@ -215,6 +215,10 @@ TEST(ThermalFusionTest, NoiseAveragesDownAndSpreadMatchesNetd) {
     const Eigen::Vector3d ray = points[i].cast<double>() - world_from_thermal.translation;
     const double expected = ray.norm() / rig.thermal->fx / std::sqrt(ray.normalized().z());
     EXPECT_NEAR(offline.footprint_m[i], expected, 0.01 * expected) << i;
+    // Seen from the one camera: the view vector reaches its centre (to the half voxel,
+    // 6 mm, between the point and the hits of the voxels it reads).
+    EXPECT_LT((points[i].cast<double>() + offline.view_m[i].cast<double>() - world_from_thermal.translation).norm(), 0.012)
+        << i;
   }
 }
 
@@ -450,6 +454,7 @@ TEST(ThermalFusionTest, UnobservedPointsAreMarkedNotZero) {
       EXPECT_EQ(s.views[i], 0);
       EXPECT_EQ(s.confidence[i], 0.0f);
       EXPECT_TRUE(std::isnan(s.footprint_m[i]));
+      EXPECT_TRUE(std::isnan(s.view_m[i].x()));
     }
   }
 }

@@ -146,6 +146,14 @@ ReportSpot ReadSpot(const JsonReader& r, const Json& s, const std::string& w) {
   o.footprint_m = r.Has(s, "footprint_m") ? r.Number(s, "footprint_m", w) : std::numeric_limits<double>::quiet_NaN();
   o.width_px = r.Has(s, "width_px") ? r.Number(s, "width_px", w) : std::numeric_limits<double>::quiet_NaN();
   o.resolved = r.Has(s, "resolved") ? r.Bool(s, "resolved", w) : true;
+  const auto optional_number = [&](const char* key) {
+    return r.Has(s, key) ? r.Number(s, key, w) : std::numeric_limits<double>::quiet_NaN();
+  };
+  o.incidence_deg = optional_number("incidence_deg");
+  o.reflection_fraction = optional_number("reflection_fraction");
+  o.reflection_source_c = optional_number("reflection_source_c");
+  o.reflection_source = r.Has(s, "reflection_source") ? r.String(s, "reflection_source", w) : "";
+  o.possible_reflection = r.Has(s, "possible_reflection") ? r.Bool(s, "possible_reflection", w) : false;
   o.centroid_m = r.Vector3(s, "centroid_m", w);
   o.peak_m = r.Vector3(s, "peak_m", w);
   o.normal = r.Vector3(s, "normal", w);

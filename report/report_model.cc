@@ -380,6 +380,21 @@ std::vector<Section> SpotSections(const AnalysisRecord& a, const SeverityRanks& 
                                       1000 * s.footprint_m) +
                              (s.resolved ? "" : "; under-resolved: the peak and ΔT read low and the size high")});
     }
+    if (std::isfinite(s.reflection_fraction)) {
+      std::string check = StringPrintf("seen %.0f° from head-on; ", s.incidence_deg);
+      if (s.reflection_source == "operator") {
+        check += StringPrintf("over %.0f %% of the spot the mirror direction returns to the thermographer",
+                              100 * s.reflection_fraction);
+      } else if (s.reflection_source == "surface") {
+        check += StringPrintf("over %.0f %% of the spot the mirror direction meets a %s surface",
+                              100 * s.reflection_fraction, FormatCelsius(s.reflection_source_c).c_str());
+      } else {
+        check += "the mirror direction meets nothing as warm as the spot";
+      }
+      check += s.possible_reflection ? ": possibly a reflection — re-image from another angle before acting"
+                                     : ": not a reflection";
+      kv.rows.push_back({"Reflection check", check});
+    }
     sec.blocks.push_back(kv);
     std::vector<const ReportImageRecord*> images;
     for (const std::string& file : s.images) {

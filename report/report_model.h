@@ -37,6 +37,12 @@ struct ReportSpot {
   // resolved): NaN / true when absent.
   double footprint_m = 0, width_px = 0;
   bool resolved = true;
+  // The reflection check (analyze.json incidence_deg, reflection_fraction,
+  // reflection_source, reflection_source_c, possible_reflection): NaN / "" / false when
+  // absent or not checked.
+  double incidence_deg = 0, reflection_fraction = 0, reflection_source_c = 0;
+  std::string reflection_source;
+  bool possible_reflection = false;
   Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero(), peak_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   std::vector<std::string> images;  // relative to the analysis folder

@@ -154,6 +154,55 @@ TEST(ReportModelTest, SpotDetailGivesTheThermalResolution) {
   }
 }
 
+// The reflection check's verdict is in the spot's detail: the disc seen head-on from 1.5 m
+// is no reflection at 50 °C (warmer than a person), and is one when people may look 60 °C.
+TEST(ReportModelTest, SpotDetailGivesTheReflectionCheck) {
+  const fs::path folder = hw::test::TestFolder();
+  for (const double operator_max_c : {37.0, 60.0}) {
+    const test::PlateAnalysis plate = test::MakePlateAnalysis(folder / std::to_string(operator_max_c), std::nan(""),
+                                                              Eigen::Vector3d(0, 0, 1.5), operator_max_c);
+    ReportInputs in;
+    in.analyze_json = plate.analyze_json;
+    in.model_ply = plate.model_ply;
+    in.job = test::TestJob();
+    const Document doc = BuildDocument(in);
+    const Section* detail = FindSection(doc, "spot-h1");
+    ASSERT_NE(detail, nullptr);
+    std::string check, action;
+    for (const Block& b : detail->blocks) {
+      if (const auto* kv = std::get_if<KeyValues>(&b)) {
+        for (const auto& row : kv->rows) {
+          if (row.first == "Reflection check") check = row.second;
+          if (row.first == "Suggested action") action = row.second;
+        }
+      }
+    }
+    // The disc's faces are 0-3.8° from head-on (atan(10 cm / 1.5 m)), 2.5° on the area's mean.
+    if (operator_max_c < 50) {
+      EXPECT_EQ(check, "seen 3° from head-on; the mirror direction meets nothing as warm as the spot: not a reflection");
+      EXPECT_EQ(action.find("Verify first"), std::string::npos) << action;
+    } else {
+      EXPECT_EQ(check, "seen 3° from head-on; over 100 % of the spot the mirror direction returns to the thermographer: "
+                       "possibly a reflection — re-image from another angle before acting");
+      EXPECT_EQ(action.find("Verify first: possibly the thermographer's own reflection"), 0u) << action;
+    }
+  }
+  // Without view vectors, no row.
+  const test::PlateAnalysis plain = test::MakePlateAnalysis(folder / "plain");
+  ReportInputs in;
+  in.analyze_json = plain.analyze_json;
+  in.model_ply = plain.model_ply;
+  in.job = test::TestJob();
+  const Document doc = BuildDocument(in);
+  const Section* detail = FindSection(doc, "spot-h1");
+  ASSERT_NE(detail, nullptr);
+  for (const Block& b : detail->blocks) {
+    if (const auto* kv = std::get_if<KeyValues>(&b)) {
+      for (const auto& row : kv->rows) EXPECT_NE(row.first, "Reflection check");
+    }
+  }
+}
+
 TEST(ReportModelTest, BadAnalysisFilesNameFileAndField) {
   const fs::path folder = hw::test::TestFolder();
   const test::PlateAnalysis plate = test::MakePlateAnalysis(folder);

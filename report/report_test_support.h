@@ -22,11 +22,23 @@ struct PlateAnalysis {
 // analyze::test::HotDiscPlate written to folder/model.ply and analysed into
 // folder/analysis with 160 × 120 images (one overview and the close-up).
 // footprint_m: when finite, the plate carries it as temperature_footprint_m (a thermal
-// pixel's size on the surface, as reconstruct writes it).
-inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder, double footprint_m = std::nan("")) {
+// pixel's size on the surface, as reconstruct writes it). view_from: when finite, every
+// vertex carries the view vector to it (temperature_view_x/_y/_z: seen from there), and
+// operator_max_c is the reflection check's (the disc peaks at 50 °C).
+inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder, double footprint_m = std::nan(""),
+                                       const Eigen::Vector3d& view_from = Eigen::Vector3d::Constant(std::nan("")),
+                                       double operator_max_c = 37) {
   core::PlyMesh ply = analyze::test::HotDiscPlate();
   if (std::isfinite(footprint_m)) {
     ply.AddProperty("temperature_footprint_m", core::PlyType::kFloat32, std::vector<double>(ply.NumVertices(), footprint_m));
+  }
+  if (view_from.allFinite()) {
+    const std::vector<Eigen::Vector3d> points = ply.Positions();
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<double> component;
+      for (const Eigen::Vector3d& p : points) component.push_back(view_from[axis] - p[axis]);
+      ply.AddProperty(std::string("temperature_view_") + "xyz"[axis], core::PlyType::kFloat32, component);
+    }
   }
   std::filesystem::create_directories(folder);
   PlateAnalysis out;
@@ -40,6 +52,7 @@ inline PlateAnalysis MakePlateAnalysis(const std::filesystem::path& folder, doub
   inputs.config.overviews = 1;
   inputs.config.legends = false;  // as heatwave audit: the report draws the colour bars
   inputs.num_threads = 2;
+  inputs.config.reflections.operator_max_c = operator_max_c;
   const analyze::ThermalMesh mesh = analyze::ReadThermalMesh(out.model_ply);
   out.result = analyze::Analyze(mesh, inputs, folder / "analysis", nullptr);
   out.analyze_json = folder / "analysis" / "analyze.json";

@@ -94,6 +94,44 @@ TEST(AnalyzeCliTest, ASpotFewerThanThreeThermalPixelsAcrossIsWarnedAbout) {
   }
 }
 
+// The plate's 50 °C disc seen head-on from 1.5 m (view vectors as reconstruct writes
+// them): flagged as the thermographer's reflection only when the config lets a person look
+// 60 °C; analyze.json carries the check either way, and --no-images still checks.
+TEST(AnalyzeCliTest, ASpotSeenHeadOnOnAShinySurfaceIsFlaggedAsAPossibleReflection) {
+  const fs::path dir = TestFolder();
+  hw::core::PlyMesh plate = Plate();
+  const std::vector<Eigen::Vector3d> points = plate.Positions();
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> component;
+    for (const Eigen::Vector3d& p : points) component.push_back(Eigen::Vector3d(0, 0, 1.5)[axis] - p[axis]);
+    plate.AddProperty(std::string("temperature_view_") + "xyz"[axis], hw::core::PlyType::kFloat32, component);
+  }
+  hw::core::WritePly(dir / "plate.ply", plate);
+  for (const double max_c : {37.0, 60.0}) {
+    const fs::path config = Write(dir, "analyze.yaml", kConfig + "reflections:\n  operator_max_c: " + std::to_string(max_c) + "\n");
+    const fs::path out = dir / ("out-" + std::to_string(max_c));
+    const Result r = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + out.string() + " --config " +
+                              config.string() + " --no-images");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string json = hw::core::ReadFile(out / "analyze.json", 1 << 24);
+    EXPECT_NE(json.find("\"incidence_deg\": "), std::string::npos) << json;
+    const bool flagged = max_c > 50;
+    EXPECT_NE(json.find(flagged ? "\"possible_reflection\": true" : "\"possible_reflection\": false"), std::string::npos)
+        << json;
+    EXPECT_EQ(r.output.find("(reflection?)") != std::string::npos, flagged) << r.output;
+    EXPECT_EQ(r.output.find("H1 may be a reflection: over 100 % of it the mirror direction of the views meets the "
+                            "thermographer's body") != std::string::npos,
+              flagged)
+        << r.output;
+  }
+  // A bad value: exit 2 naming it.
+  const fs::path bad = Write(dir, "bad.yaml", kConfig + "reflections:\n  min_fraction: 0\n");
+  const Result r = Heatwave("analyze " + (dir / "plate.ply").string() + " --out " + (dir / "bad-out").string() +
+                            " --config " + bad.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("reflections.min_fraction"), std::string::npos) << r.output;
+}
+
 TEST(AnalyzeCliTest, WithoutTemperatureItRendersColourAndSaysSo) {
   const fs::path dir = TestFolder();
   hw::core::WritePly(dir / "plate.ply", Plate(false));

@@ -12,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/ply.h"
 #include "core/scan.h"
+#include "core/trajectory.h"
 #include "reconstruct/reconstruct_test_support.h"
 #include "tests/support.h"
 
@@ -53,9 +54,25 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
   EXPECT_NE(r.output.find("offline"), std::string::npos) << r.output;
   const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
   for (const char* name : {"temperature_c", "temperature_apparent_c", "temperature_confidence",
-                           "temperature_views", "temperature_std_c", "temperature_footprint_m"}) {
+                           "temperature_views", "temperature_std_c", "temperature_footprint_m",
+                           "temperature_view_x", "temperature_view_y", "temperature_view_z"}) {
     ASSERT_NE(model.Find(name), nullptr) << name;
   }
+  // Where each vertex was seen from (point + view vector, a mean of camera centres) lies in
+  // the box of the trajectory's positions, widened by the rig's 5 cm depth-to-thermal lever
+  // arm and 1 cm for the vertex's offset from the voxels it reads.
+  const hw::core::Trajectory trajectory = hw::core::ReadTumTrajectory(out / "trajectory.txt");
+  Eigen::AlignedBox3d cameras;
+  for (const hw::core::TimedPose& p : trajectory.poses()) cameras.extend(p.world_from_sensor.translation);
+  cameras.min() -= Eigen::Vector3d::Constant(0.06);
+  cameras.max() += Eigen::Vector3d::Constant(0.06);
+  const auto& view_x = model.Get("temperature_view_x").values;
+  const auto& view_y = model.Get("temperature_view_y").values;
+  const auto& view_z = model.Get("temperature_view_z").values;
+  const auto& x = model.Get("x").values;
+  const auto& y = model.Get("y").values;
+  const auto& z = model.Get("z").values;
+  int seen_from_the_path = 0, with_view = 0;
   const auto& footprint = model.Get("temperature_footprint_m").values;
   const auto& t = model.Get("temperature_c").values;
   const auto& apparent = model.Get("temperature_apparent_c").values;
@@ -73,14 +90,20 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
       // A 300 px focal length from 0.4 m to 4 m: 1.3 to 13 mm across, at most √10 times
       // that along a grazing slope.
       EXPECT_TRUE(footprint[i] > 1e-3 && footprint[i] < 0.05) << i << " " << footprint[i];
+      const Eigen::Vector3d view(view_x[i], view_y[i], view_z[i]);
+      ASSERT_TRUE(view.allFinite()) << i;
+      ++with_view;
+      seen_from_the_path += cameras.contains(Eigen::Vector3d(x[i], y[i], z[i]) + view);
     } else {
       ++unobserved;
       EXPECT_TRUE(std::isnan(t[i])) << "unobserved vertex " << i << " has " << t[i];
       EXPECT_TRUE(std::isnan(apparent[i]));
       EXPECT_EQ(confidence[i], 0);
       EXPECT_TRUE(std::isnan(footprint[i]));
+      EXPECT_TRUE(std::isnan(view_x[i]) && std::isnan(view_y[i]) && std::isnan(view_z[i]));
     }
   }
+  EXPECT_EQ(seen_from_the_path, with_view);
   // The thermal camera sees less than the depth camera (narrower view, 40 ms behind), so
   // most of the model but not all of it has a temperature.
   EXPECT_GT(observed, static_cast<int>(t.size()) / 2);

@@ -1,0 +1,130 @@
+#include "analyze/spot_reflection.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "core/strings.h"
+
+namespace hw::analyze {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The temperature at a hit: barycentric over the face's vertices with a temperature,
+// renormalised; NaN when those carry less than half the weight (unobserved surface).
+double TemperatureAt(const ThermalMesh& mesh, const MeshRenderer::Hit& hit) {
+  const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(hit.face)];
+  const double u = static_cast<double>(hit.bary_u), v = static_cast<double>(hit.bary_v);
+  const double w[3] = {1.0 - u - v, u, v};
+  double sum = 0, weight = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double t = mesh.temperature_c[static_cast<size_t>(face[k])];
+    if (!std::isfinite(t)) continue;
+    sum += w[k] * t;
+    weight += w[k];
+  }
+  return weight >= 0.5 ? sum / weight : std::nan("");
+}
+
+}  // namespace
+
+std::string ReflectionOptions::Check() const {
+  if (!(operator_radius_m > 0 && operator_radius_m <= 5)) {
+    return core::StringPrintf("reflections.operator_radius_m is %g: must be in (0, 5] m", operator_radius_m);
+  }
+  if (!(operator_max_c > -50 && operator_max_c <= 100)) {
+    return core::StringPrintf("reflections.operator_max_c is %g: must be in (-50, 100] °C", operator_max_c);
+  }
+  if (!(min_fraction > 0 && min_fraction <= 1)) {
+    return core::StringPrintf("reflections.min_fraction is %g: must be in (0, 1]", min_fraction);
+  }
+  if (max_faces < 1) return core::StringPrintf("reflections.max_faces is %d: must be >= 1", max_faces);
+  return "";
+}
+
+void CheckReflections(const ThermalMesh& mesh, const MeshRenderer& renderer, const ReflectionOptions& options,
+                      std::vector<Spot>* spots) {
+  assert(options.Check().empty());
+  if (!options.check || mesh.view_m.empty() || !mesh.HasTemperature()) return;
+  for (Spot& spot : *spots) {
+    const size_t stride = spot.faces.size() / static_cast<size_t>(options.max_faces) + 1;
+    double checked = 0, incidence = 0, operator_area = 0, surface_area = 0, unseen_area = 0, source_c = 0;
+    Eigen::Vector3d operator_at = Eigen::Vector3d::Zero(), surface_at = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < spot.faces.size(); i += stride) {
+      const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(spot.faces[i])];
+      const Eigen::Vector3d& a = mesh.points_in_world[static_cast<size_t>(face[0])];
+      const Eigen::Vector3d& b = mesh.points_in_world[static_cast<size_t>(face[1])];
+      const Eigen::Vector3d& c = mesh.points_in_world[static_cast<size_t>(face[2])];
+      Eigen::Vector3d view = Eigen::Vector3d::Zero();
+      int with_view = 0;
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d& v = mesh.view_m[static_cast<size_t>(face[k])];
+        if (!v.allFinite()) continue;
+        view += v;
+        ++with_view;
+      }
+      Eigen::Vector3d normal = (b - a).cross(c - a);
+      const double area = 0.5 * normal.norm();
+      if (with_view == 0 || !(area > 0)) continue;
+      view /= with_view;
+      const double distance = view.norm();
+      if (!(distance > 0)) continue;
+      normal.normalize();
+      // Oriented towards where it was seen from (marching cubes' winding is not trusted).
+      if (normal.dot(view) < 0) normal = -normal;
+      const Eigen::Vector3d to_camera = view / distance;
+      const double cos_incidence = std::clamp(normal.dot(to_camera), 0.0, 1.0);
+      checked += area;
+      incidence += area * std::acos(cos_incidence) * 180 / kPi;
+      // The mirror direction of the ray that arrived from the camera.
+      const Eigen::Vector3d mirror = 2 * cos_incidence * normal - to_camera;
+      const Eigen::Vector3d point = (a + b + c) / 3;
+      // The camera's nearest approach along the mirror ray (behind the surface: never).
+      const double along = view.dot(mirror);
+      const double miss_m = along > 0 ? (view - along * mirror).norm() : std::numeric_limits<double>::infinity();
+      // 1 cm out: the surface around the face itself is not a source.
+      const MeshRenderer::Hit hit = renderer.Intersect(point, mirror, 0.01, 1e3);
+      const bool operator_in_reach = miss_m <= options.operator_radius_m &&
+                                     (hit.face < 0 || hit.t_m > along - options.operator_radius_m);
+      if (operator_in_reach && spot.hot && spot.peak_c <= options.operator_max_c) {
+        operator_area += area;
+        operator_at += area * (point + view);
+        continue;
+      }
+      if (hit.face < 0) continue;
+      const double hit_c = TemperatureAt(mesh, hit);
+      if (std::isnan(hit_c)) unseen_area += area;
+      if (!(spot.hot ? hit_c >= spot.peak_c : hit_c <= spot.peak_c)) continue;
+      surface_area += area;
+      surface_at += area * (point + hit.t_m * mirror);
+      source_c += area * hit_c;
+    }
+    if (!(checked > 0)) continue;
+    spot.incidence_deg = incidence / checked;
+    spot.reflection_fraction = (operator_area + surface_area) / checked;
+    spot.reflection_unseen_fraction = unseen_area / checked;
+    spot.possible_reflection = spot.reflection_fraction >= options.min_fraction;
+    if (operator_area + surface_area > 0) {
+      if (operator_area >= surface_area) {
+        spot.reflection_source = "operator";
+        spot.reflection_source_in_world = operator_at / operator_area;
+      } else {
+        spot.reflection_source = "surface";
+        spot.reflection_source_in_world = surface_at / surface_area;
+        spot.reflection_source_c = source_c / surface_area;
+      }
+    }
+    if (!spot.possible_reflection) continue;
+    const std::string what =
+        spot.reflection_source == "operator"
+            ? core::StringPrintf("the thermographer's own reflection (seen %.0f° from head-on)", spot.incidence_deg)
+            : core::StringPrintf("the reflection of a %.1f °C surface %.2f m away", spot.reflection_source_c,
+                                 (spot.reflection_source_in_world - spot.peak_in_world).norm());
+    spot.action = "Verify first: possibly " + what + "; re-image from another angle. If it stays: " + spot.action;
+  }
+}
+
+}  // namespace hw::analyze
