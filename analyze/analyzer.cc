@@ -428,6 +428,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
         .Number("max_abs_area_error", r.truth->max_abs_area_error)
         .Number("max_abs_length_error", r.truth->max_abs_length_error)
         .Number("max_abs_width_error", r.truth->max_abs_width_error)
+        .Number("max_abs_delta_error_k", r.truth->max_abs_delta_error_k)
         .Number("max_abs_area_error_at_threshold", r.truth->max_abs_area_error_at_threshold)
         .Number("max_abs_length_error_at_threshold", r.truth->max_abs_length_error_at_threshold)
         .Number("max_abs_width_error_at_threshold", r.truth->max_abs_width_error_at_threshold);
@@ -443,6 +444,8 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
                             .Bool("area_covered", x.area_covered)
                             .Bool("length_covered", x.length_covered)
                             .Bool("width_covered", x.width_covered)
+                            .Number("delta_error_k", x.delta_error_k)
+                            .Bool("delta_covered", x.delta_covered)
                             .Number("area_error_at_threshold", x.area_error_at_threshold)
                             .Number("length_error_at_threshold", x.length_error_at_threshold)
                             .Number("width_error_at_threshold", x.width_error_at_threshold)
@@ -494,7 +497,7 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
     if (r.detection->unmeasured > 0) {
       s << "  warning: " << r.detection->unmeasured << " weaker candidates not measured (spots.max_candidates)\n";
     }
-    s << "  id    peak °C  ref °C    ΔT K   area cm²        length cm      width cm    px  severity\n";
+    s << "  id    peak °C  ref °C   ΔT K         area cm²        length cm      width cm    px  severity\n";
     int shown = 0;
     for (const Spot& x : r.detection->spots) {
       if (++shown > 12) {
@@ -505,8 +508,8 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
       char px[16] = "    -";
       if (std::isfinite(x.width_px)) std::snprintf(px, sizeof px, "%5.1f", x.width_px);
       char line[256];
-      std::snprintf(line, sizeof line, "  %-4s %8.1f %7.1f %7.1f %8.1f ±%-6.1f %6.1f ±%-5.1f %6.1f ±%-5.1f %s%s %s\n",
-                    x.id.c_str(), x.peak_c, x.reference_c, x.delta_k, 1e4 * x.area_m2, 1e4 * x.area_sigma_m2,
+      std::snprintf(line, sizeof line, "  %-4s %8.1f %7.1f %6.1f ±%-4.1f %8.1f ±%-6.1f %6.1f ±%-5.1f %6.1f ±%-5.1f %s%s %s\n",
+                    x.id.c_str(), x.peak_c, x.reference_c, x.delta_k, x.delta_sigma_k, 1e4 * x.area_m2, 1e4 * x.area_sigma_m2,
                     100 * x.length_m, 100 * x.length_sigma_m, 100 * x.width_m, 100 * x.width_sigma_m, px,
                     x.resolved ? " " : "!", (x.severity + (x.possible_reflection ? " (reflection?)" : "")).c_str());
       s << line;
@@ -524,7 +527,7 @@ std::string FormatAnalyzeSummary(const AnalyzeResult& r) {
     for (const auto& [truth_id, spot_id] : r.truth->partly_observed) s << ", " << spot_id << " on " << truth_id << " (seen in part)";
     s << "; max |error| area " << FixedText(100 * r.truth->max_abs_area_error, 2) << " %, length "
       << FixedText(100 * r.truth->max_abs_length_error, 2) << " %, width " << FixedText(100 * r.truth->max_abs_width_error, 2)
-      << " %\n         at the truth's own thresholds: area " << FixedText(100 * r.truth->max_abs_area_error_at_threshold, 2)
+      << " %, ΔT " << FixedText(r.truth->max_abs_delta_error_k, 2) << " K\n         at the truth's own thresholds: area " << FixedText(100 * r.truth->max_abs_area_error_at_threshold, 2)
       << " %, length " << FixedText(100 * r.truth->max_abs_length_error_at_threshold, 2) << " %, width "
       << FixedText(100 * r.truth->max_abs_width_error_at_threshold, 2) << " %\n";
   }

@@ -20,6 +20,14 @@ struct Spot {
   double reference_c = 0;  // ambient, or the surrounding surface (see reference below)
   std::string reference;   // "surrounding", "ambient" or "absolute"
   double delta_k = 0;      // peak_c − reference_c (negative for a cold spot)
+  // One sigma of delta_k, K: the peak vertex's noise (spread across views over √views,
+  // inflated by 1/√confidence; else the surroundings' spread), the maximum's bias over the
+  // region's robust peak, the reference's standard error, and half of delta_blur_bound_k.
+  double delta_sigma_k = 0;
+  // How much the thermal image's blur may have lowered |ΔT| at most, K (one-sided: a blur
+  // only ever lowers a peak; 0 for a plateau wider than the blur, this much for the most
+  // peaked, exponential profile); NaN without temperature_footprint_m.
+  double delta_blur_bound_k = kUnknown;
   double level_c = 0;      // the boundary's iso-temperature
   // Extent on the surface, with one-sigma uncertainties.
   double area_m2 = 0;

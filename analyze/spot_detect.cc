@@ -467,6 +467,27 @@ void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
   spot->length_sigma_m = std::sqrt(2 * mean_d2 + 4 * mean_coherent * mean_coherent);
   spot->width_sigma_m = spot->length_sigma_m;
   spot->boundary_std_c = boundary_vertices > 0 ? boundary_std / boundary_vertices : kNaN;
+  // ΔT's one sigma: the peak vertex's own noise; the maximum's bias, the largest of n
+  // independent noisy samples standing ~σ·√(2 ln n) above what they sample (n: the region's
+  // vertices, or its thermal pixels where the mesh gives their footprint, whichever is
+  // fewer: neighbouring vertices interpolate the same pixels), or the maximum's excess over
+  // the robust peak if larger; and the ring median's standard error (none against a given
+  // ambient).
+  double sigma_vertex = ring_sigma;
+  if (!mesh.std_c.empty() && !mesh.views.empty() && std::isfinite(mesh.std_c[U(peak_vertex)]) &&
+      mesh.views[U(peak_vertex)] >= 1) {
+    sigma_vertex = mesh.std_c[U(peak_vertex)] / std::sqrt(mesh.views[U(peak_vertex)]);
+  }
+  if (!mesh.confidence.empty() && std::isfinite(mesh.confidence[U(peak_vertex)])) {
+    sigma_vertex /= std::sqrt(std::clamp(mesh.confidence[U(peak_vertex)], 0.05, 1.0));
+  }
+  double samples = static_cast<double>(m.region.size());
+  const double footprint_m = RegionMean(c, m.region, mesh.footprint_m);
+  if (footprint_m > 0) samples = std::min(samples, area / (footprint_m * footprint_m));
+  const double max_bias = std::max(sigma_vertex * std::sqrt(2 * std::log(std::max(samples, 1.0))), sigma_peak_shape);
+  const double sigma_reference_delta = spot->reference == "ambient" ? 0.0 : sigma_reference;
+  spot->delta_sigma_k = std::sqrt(sigma_vertex * sigma_vertex + max_bias * max_bias +
+                                  sigma_reference_delta * sigma_reference_delta);
 }
 
 

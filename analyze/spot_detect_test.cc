@@ -139,6 +139,37 @@ TEST(SpotDetectTest, BlurOfAPeakedSpotIsCoveredByTheResolutionTerm) {
   EXPECT_GT(s.area_m2 - true_area, 2 * without.spots[0].area_sigma_m2);
   EXPECT_TRUE(std::isnan(without.spots[0].footprint_m));
   EXPECT_TRUE(without.spots[0].resolved);
+  // The blur lowers the peak too: 10 K reads e^(s²/2)·erfc(s/√2) = 0.839 of it (s = σ_b/λ =
+  // 0.23), 8.39 K. The bound (from the measured width less the largest widening) spans the
+  // 1.61 K, and is not loose by more than a third for this, the most peaked profile; two
+  // sigmas cover it, the mesh's own noise terms (0: an exact field) do not.
+  EXPECT_NEAR(s.delta_k, 10 * BlurredExponential(0, lambda, blur), 0.01);
+  const double delta_error = 10 - s.delta_k;
+  EXPECT_GE(s.delta_blur_bound_k, delta_error - 0.02);
+  EXPECT_LT(s.delta_blur_bound_k, 1.33 * delta_error);
+  EXPECT_LE(delta_error, 2 * s.delta_sigma_k + 0.02);
+  EXPECT_GT(delta_error, 2 * without.spots[0].delta_sigma_k);
+  EXPECT_TRUE(std::isnan(without.spots[0].delta_blur_bound_k));
+}
+
+// The point-source form: a disc whose radial profile is exponential, blurred in both
+// directions, loses more of its peak than a line (closed form at s = 0.2: 1 − s·√(π/2)·
+// e^(s²/2)·erfc(s/√2) = 0.783 against the line's 0.857), and a blur far below the width
+// loses nothing.
+TEST(SpotDetectTest, PeakDropBoundOfLinesAndPoints) {
+  const double width = 0.05, blur = 0.2 * (width / (2 * std::log(2.0))) / (1 + 0.2 * kMaxBlurWideningSigmas / (2 * std::log(2.0)));
+  // width − 1.8 σ_b is the true width the bound assumes: λ = that / (2 ln 2) = σ_b / 0.2.
+  const double true_lambda = (width - kMaxBlurWideningSigmas * blur) / (2 * std::log(2.0));
+  ASSERT_NEAR(blur / true_lambda, 0.2, 1e-9);
+  EXPECT_NEAR(PeakDropBound(width, blur, true), 1 - std::exp(0.02) * std::erfc(0.2 / std::sqrt(2.0)), 1e-12);
+  EXPECT_NEAR(PeakDropBound(width, blur, false),
+              0.2 * std::sqrt(kPi / 2) * std::exp(0.02) * std::erfc(0.2 / std::sqrt(2.0)), 1e-12);
+  EXPECT_GT(PeakDropBound(width, blur, false), PeakDropBound(width, blur, true));
+  EXPECT_LT(PeakDropBound(1.0, 1e-4, true), 1e-3);
+  EXPECT_EQ(PeakDropBound(0.05, std::nan(""), true), 0.0);
+  EXPECT_EQ(PeakDropBound(0.0, 0.01, true), 0.0);
+  // Narrower than the blur: taken as the blur's width (finite, < 1).
+  EXPECT_LT(PeakDropBound(0.001, 0.01, false), 1.0);
 }
 
 // A straight step's half-ΔT line does not move under blur: the same footprint leaves a
@@ -153,6 +184,10 @@ TEST(SpotDetectTest, BlurLeavesAStepEdgedSpotInPlace) {
   ASSERT_EQ(d.spots.size(), 1u);
   EXPECT_NEAR(d.spots[0].width_m, 2 * half, 0.001);
   EXPECT_LT(d.spots[0].width_sigma_m, 0.5 * kMaxBlurWideningSigmas * blur + 0.001);
+  // Its peak is erf(12 / (4 √2)) = 0.997 of 10 K; the bound assumes the most peaked profile
+  // and so only bounds it (one-sided, not an estimate).
+  EXPECT_NEAR(d.spots[0].delta_k, 10 * std::erf(half / (blur * std::sqrt(2.0))), 0.01);
+  EXPECT_GT(d.spots[0].delta_blur_bound_k, 10 - d.spots[0].delta_k);
 }
 
 // Fewer thermal pixels across than min_resolved_px: flagged (analyze warns), not dropped.
@@ -219,7 +254,8 @@ TEST(SpotDetectTest, HotAndColdSpotsAreOrderedAndNamed) {
 TEST(SpotDetectTest, NoiseIsCoveredByTheReportedUncertainty) {
   // 0.5 K of vertex noise on a 5 mm mesh: the reported one-sigma area uncertainty must cover
   // the error in about 95 % of trials at 2σ. Over 20 seeds allow 3 misses (binomial tail).
-  int covered = 0, trials = 20;
+  int covered = 0, delta_covered = 0, trials = 20;
+  double delta_bias = 0;
   for (int seed = 0; seed < trials; ++seed) {
     std::mt19937 rng(static_cast<unsigned>(seed));
     std::normal_distribution<double> noise(0, 0.5);
@@ -233,8 +269,14 @@ TEST(SpotDetectTest, NoiseIsCoveredByTheReportedUncertainty) {
     const double error = s.area_m2 - kPi * radius * radius;
     covered += std::abs(error) <= 2 * s.area_sigma_m2;
     EXPECT_LT(std::abs(error) / (kPi * radius * radius), 0.1);
+    // ΔT: the hottest of ~450 noisy plateau vertices reads ~3σ high (+1.5 K over the true
+    // 10 K): the maximum's bias is in its sigma.
+    delta_covered += std::abs(s.delta_k - 10) <= 2 * s.delta_sigma_k;
+    delta_bias += s.delta_k - 10;
   }
   EXPECT_GE(covered, trials - 3);
+  EXPECT_GE(delta_covered, trials - 3);
+  EXPECT_GT(delta_bias / trials, 0.5);  // the bias is real (a test that could not fail otherwise)
 }
 
 TEST(SpotDetectTest, AWholeWarmSurfaceIsNotASpot) {

@@ -98,6 +98,9 @@ TruthScore ScoreAgainstTruth(const std::vector<Spot>& spots, const std::vector<T
     const double area_true = observed_only && tr.observed_area_m2 >= 0 ? tr.observed_area_m2 : tr.area_m2;
     m.area_error = (spot.area_m2 - area_true) / area_true;
     m.area_covered = std::abs(spot.area_m2 - area_true) <= 2 * spot.area_sigma_m2;
+    m.delta_error_k = spot.delta_k - 2 * (tr.temperature_c - tr.threshold_c);
+    m.delta_covered = std::abs(m.delta_error_k) <= 2 * spot.delta_sigma_k;
+    score.max_abs_delta_error_k = std::max(score.max_abs_delta_error_k, std::abs(m.delta_error_k));
     score.max_abs_area_error = std::max(score.max_abs_area_error, std::abs(m.area_error));
     const bool full = !observed_only || tr.observed_fraction >= 0.99 || tr.observed_fraction < 0;
     if (full) {

@@ -45,6 +45,10 @@ struct TruthMatch {
   double length_error_m = 0;     // measured − true, metres
   double width_error_m = 0;
   bool area_covered = false;     // |area error| <= 2 σ (the reported one-sigma uncertainty)
+  // ΔT against the truth's: 2 (temperature_c − threshold_c), the fixtures' threshold being
+  // half-way from the spot's background to its extreme; K, and within 2 delta_sigma_k.
+  double delta_error_k = 0;
+  bool delta_covered = false;
   bool length_covered = false;
   bool width_covered = false;
   // The same spot re-measured with the truth's own boundary (threshold_c): the measurement's
@@ -75,6 +79,7 @@ struct TruthScore {
   double max_abs_area_error = 0;       // over found spots
   double max_abs_length_error = 0;
   double max_abs_width_error = 0;
+  double max_abs_delta_error_k = 0;    // ΔT, K, over found spots
   double max_abs_area_error_at_threshold = 0;  // over re-measured spots
   double max_abs_length_error_at_threshold = 0;
   double max_abs_width_error_at_threshold = 0;

@@ -64,5 +64,24 @@ TEST(SpotEvalTest, FlaggedReflectionsAreCountedOnBothSides) {
   EXPECT_EQ(score.found_flagged_as_reflections, (std::vector<std::string>{"H2"}));
 }
 
+// ΔT against the truth's: its threshold is half-way from the background to the extreme, so
+// the true ΔT is 2 (temperature − threshold); covered within 2 delta_sigma_k.
+TEST(SpotEvalTest, DeltaIsScoredAgainstTwiceTheThresholdsDistance) {
+  TruthSpot t = Truth("a", 0, 1.0);
+  t.temperature_c = 60;
+  t.threshold_c = 40;  // background 20, ΔT 40
+  Spot s = At("H1", 0);
+  s.delta_k = 38.5;
+  s.delta_sigma_k = 1.0;
+  TruthScore score = ScoreAgainstTruth({s}, {t}, false);
+  ASSERT_EQ(score.matches.size(), 1u);
+  EXPECT_NEAR(score.matches[0].delta_error_k, -1.5, 1e-12);
+  EXPECT_TRUE(score.matches[0].delta_covered);
+  EXPECT_NEAR(score.max_abs_delta_error_k, 1.5, 1e-12);
+  s.delta_sigma_k = 0.7;
+  score = ScoreAgainstTruth({s}, {t}, false);
+  EXPECT_FALSE(score.matches[0].delta_covered);
+}
+
 }  // namespace
 }  // namespace hw::analyze

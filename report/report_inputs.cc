@@ -149,6 +149,8 @@ ReportSpot ReadSpot(const JsonReader& r, const Json& s, const std::string& w) {
   const auto optional_number = [&](const char* key) {
     return r.Has(s, key) ? r.Number(s, key, w) : std::numeric_limits<double>::quiet_NaN();
   };
+  o.delta_sigma_k = optional_number("delta_sigma_k");
+  o.delta_blur_bound_k = optional_number("delta_blur_bound_k");
   o.incidence_deg = optional_number("incidence_deg");
   o.reflection_fraction = optional_number("reflection_fraction");
   o.reflection_source_c = optional_number("reflection_source_c");

@@ -151,6 +151,11 @@ FigureGrid ViewGrid(const AnalysisRecord& a, const std::vector<const ReportImage
   return grid;
 }
 
+// "38.8 ± 2.1 K" (one decimal, as the severity bands are read); "38.8 K" without σ.
+std::string FormatDelta(double delta_k, double sigma_k) {
+  return std::isfinite(sigma_k) ? StringPrintf("%.1f ± %.1f K", delta_k, sigma_k) : StringPrintf("%.1f K", delta_k);
+}
+
 double Decimals(double sigma) {
   if (!(sigma > 0) || !std::isfinite(sigma)) return 1;
   return std::clamp(1.0 - std::floor(std::log10(sigma)), 0.0, 4.0);
@@ -161,7 +166,7 @@ Table SpotTable(const AnalysisRecord& a, const SeverityRanks& ranks) {
   t.header = {"Spot", "Kind", "Severity", "Peak", "ΔT", "Area", "Length", "Suggested action"};
   t.numeric = {false, false, false, true, true, true, true, false};
   for (const ReportSpot& s : a.spots) {
-    t.rows.push_back({s.id, s.kind, s.severity, FormatCelsius(s.peak_c), StringPrintf("%.1f K", s.delta_k),
+    t.rows.push_back({s.id, s.kind, s.severity, FormatCelsius(s.peak_c), FormatDelta(s.delta_k, s.delta_sigma_k),
                       FormatArea(s.area_m2, s.area_sigma_m2), FormatLength(s.length_m, s.length_sigma_m), s.action});
     t.tint_srgb8.push_back(ranks.Tint(s.severity));
     t.row_links.push_back(Anchor("spot-", s.id));
@@ -365,7 +370,10 @@ std::vector<Section> SpotSections(const AnalysisRecord& a, const SeverityRanks& 
                {"Peak temperature", FormatCelsius(s.peak_c)},
                {"Mean temperature", FormatCelsius(s.mean_c)},
                {"Reference (" + s.reference + ")", FormatCelsius(s.reference_c)},
-               {"ΔT", StringPrintf("%.1f K", s.delta_k)},
+               {"ΔT", FormatDelta(s.delta_k, s.delta_sigma_k) +
+                          (s.delta_blur_bound_k >= 0.05
+                               ? StringPrintf(" (the thermal image's blur may read it up to %.1f K low)", s.delta_blur_bound_k)
+                               : "")},
                {"Boundary isotherm", FormatCelsius(s.level_c)},
                {"Area", FormatArea(s.area_m2, s.area_sigma_m2)},
                {"Length", FormatLength(s.length_m, s.length_sigma_m)},

@@ -31,6 +31,8 @@ struct ReportInputs {
 struct ReportSpot {
   std::string id, kind, severity, action, reference, unrolling;
   double peak_c = 0, mean_c = 0, reference_c = 0, delta_k = 0, level_c = 0;
+  // analyze.json delta_sigma_k (one sigma) and delta_blur_bound_k: NaN when absent.
+  double delta_sigma_k = 0, delta_blur_bound_k = 0;
   double area_m2 = 0, area_sigma_m2 = 0, length_m = 0, length_sigma_m = 0, width_m = 0, width_sigma_m = 0;
   double mean_confidence = 0, mean_views = 0, spread_c = 0;  // spread: NaN when absent
   // The thermal image's resolution over the spot (analyze.json footprint_m, width_px,

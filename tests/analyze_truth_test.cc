@@ -57,9 +57,11 @@ void ExpectTargets(const std::string& name) {
   std::string table;
   for (const TruthMatch& m : score.matches) {
     char line[200];
-    std::snprintf(line, sizeof line, "  %-12s %-4s area %+.4f length %+.4f width %+.4f | at threshold %+.4f %+.4f %+.4f\n",
+    std::snprintf(line, sizeof line,
+                  "  %-12s %-4s area %+.4f length %+.4f width %+.4f | at threshold %+.4f %+.4f %+.4f | ΔT %+.3f K%s\n",
                   m.truth_id.c_str(), m.spot_id.c_str(), m.area_error, m.length_error, m.width_error,
-                  m.area_error_at_threshold, m.length_error_at_threshold, m.width_error_at_threshold);
+                  m.area_error_at_threshold, m.length_error_at_threshold, m.width_error_at_threshold, m.delta_error_k,
+                  m.delta_covered ? "" : " (not covered)");
     table += line;
   }
   for (const Spot& s : detection.spots) {
@@ -91,6 +93,8 @@ void ExpectTargets(const std::string& name) {
         << name << " " << t.id << " length " << m.length_error_at_threshold;
     EXPECT_TRUE(std::abs(m.width_error_at_threshold) <= 0.01 || std::abs(m.width_error_at_threshold_m) <= 0.002)
         << name << " " << t.id << " width " << m.width_error_at_threshold;
+    // ΔT against the truth's, within its reported uncertainty.
+    EXPECT_TRUE(m.delta_covered) << name << " " << t.id << " ΔT error " << m.delta_error_k;
     // Detection's own boundary where it is the truth's.
     if (DefaultBoundaryIsTheTruths(scene.hotspots[i])) {
       EXPECT_LE(std::abs(m.area_error), 0.02) << name << " " << t.id;
