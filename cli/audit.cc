@@ -178,6 +178,18 @@ std::string FormatAuditSummary(const AuditResult& r) {
                             r.analysis.observed_area_m2, r.analysis.temperature_min_c, r.analysis.temperature_max_c,
                             r.analysis.images.size(), r.analyze_s);
   out += ReportLines(r.report);
+  if (r.analysis.detection) {
+    std::string ids;
+    int n = 0;
+    for (const analyze::Spot& s : r.analysis.detection->spots) {
+      if (!s.possible_reflection) continue;
+      ids += (n++ ? ", " : "") + s.id;
+    }
+    if (n > 0) {
+      out += core::StringPrintf("Verify     %d %s (%s): re-image from another angle\n", n,
+                                n == 1 ? "spot may be a reflection" : "spots may be reflections", ids.c_str());
+    }
+  }
   std::vector<std::string> warnings = rec.warnings;
   warnings.insert(warnings.end(), r.analysis.warnings.begin(), r.analysis.warnings.end());
   if (!warnings.empty()) {

@@ -151,6 +151,19 @@ FigureGrid ViewGrid(const AnalysisRecord& a, const std::vector<const ReportImage
   return grid;
 }
 
+// " 3 of them (H5, H7, H8) may be reflections: …" or "" when none is flagged.
+std::string ReflectionSummary(const AnalysisRecord& a) {
+  std::string ids;
+  int n = 0;
+  for (const ReportSpot& s : a.spots) {
+    if (s.possible_reflection) ids += (n++ ? ", " : "") + s.id;
+  }
+  if (n == 0) return "";
+  return StringPrintf(" %d of them (%s) may be %s: seen nearly head-on on a shiny surface, which reflects the "
+                      "thermographer, or mirroring a warmer surface; verify %s from another angle before acting.",
+                      n, ids.c_str(), n == 1 ? "a reflection" : "reflections", n == 1 ? "it" : "them");
+}
+
 // "38.8 ± 2.1 K" (one decimal, as the severity bands are read); "38.8 K" without σ.
 std::string FormatDelta(double delta_k, double sigma_k) {
   return std::isfinite(sigma_k) ? StringPrintf("%.1f ± %.1f K", delta_k, sigma_k) : StringPrintf("%.1f K", delta_k);
@@ -400,7 +413,7 @@ std::vector<Section> SpotSections(const AnalysisRecord& a, const SeverityRanks& 
         check += "the mirror direction meets nothing as warm as the spot";
       }
       check += s.possible_reflection ? ": possibly a reflection — re-image from another angle before acting"
-                                     : ": not a reflection";
+                                     : ": not flagged as a reflection";
       kv.rows.push_back({"Reflection check", check});
     }
     sec.blocks.push_back(kv);
@@ -436,6 +449,11 @@ Section MethodSection(const AnalysisRecord& a, const SeverityRanks& ranks) {
       "and length are measured on the model's surface; their uncertainties propagate the temperature noise at the "
       "boundary. %d candidates were examined; %zu were rejected.",
       a.min_area_m2, a.max_area_m2, a.boundary_fraction * 100, a.candidates, a.rejected.size());
+  if (std::any_of(a.spots.begin(), a.spots.end(), [](const ReportSpot& x) { return std::isfinite(x.reflection_fraction); })) {
+    detect += " Each spot was checked for reflections: the direction it was viewed from, mirrored about the surface, "
+              "was traced through the model; a spot whose mirror directions mostly return to the thermographer (and "
+              "that is no warmer than a person) or meet a surface at least as warm is marked as a possible reflection.";
+  }
   s.blocks.push_back(Paragraph{detect, Paragraph::Style::kBody});
   Table sev;
   sev.header = {"Severity", "From ΔT", "Action"};
@@ -529,7 +547,7 @@ Document BuildDocument(const ReportInputs& in) {
       StringPrintf("%d hot and %d cold spot%s found on %.2f m² of surface with temperature (%.2f m² scanned), ",
                    hot, static_cast<int>(a.spots.size()) - hot, a.spots.size() - static_cast<size_t>(hot) == 1 ? "" : "s",
                    a.observed_area_m2, a.area_m2) +
-          StringPrintf("surface temperatures %.1f to %.1f °C.", a.min_c, a.max_c),
+          StringPrintf("surface temperatures %.1f to %.1f °C.", a.min_c, a.max_c) + ReflectionSummary(a),
       Paragraph::Style::kBody});
   if (!a.spots.empty()) summary.blocks.push_back(SpotTable(a, ranks));
   doc.sections.push_back(summary);

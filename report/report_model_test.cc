@@ -179,13 +179,28 @@ TEST(ReportModelTest, SpotDetailGivesTheReflectionCheck) {
     }
     // The disc's faces are 0-3.8° from head-on (atan(10 cm / 1.5 m)), 2.5° on the area's mean.
     if (operator_max_c < 50) {
-      EXPECT_EQ(check, "seen 3° from head-on; the mirror direction meets nothing as warm as the spot: not a reflection");
+      EXPECT_EQ(check, "seen 3° from head-on; the mirror direction meets nothing as warm as the spot: not flagged as a reflection");
       EXPECT_EQ(action.find("Verify first"), std::string::npos) << action;
     } else {
       EXPECT_EQ(check, "seen 3° from head-on; over 100 % of the spot the mirror direction returns to the thermographer: "
                        "possibly a reflection — re-image from another angle before acting");
       EXPECT_EQ(action.find("Verify first: possibly the thermographer's own reflection"), 0u) << action;
     }
+    // The summary says so (or not), and the method describes the check.
+    const Section* summary = FindSection(doc, "summary");
+    const Section* method = FindSection(doc, "method");
+    ASSERT_NE(summary, nullptr);
+    ASSERT_NE(method, nullptr);
+    const auto text_of = [](const Section& section) {
+      std::string text;
+      for (const Block& b : section.blocks) {
+        if (const auto* p = std::get_if<Paragraph>(&b)) text += p->text;
+      }
+      return text;
+    };
+    EXPECT_EQ(text_of(*summary).find("1 of them (H1) may be a reflection") != std::string::npos, operator_max_c > 50)
+        << text_of(*summary);
+    EXPECT_NE(text_of(*method).find("checked for reflections"), std::string::npos);
   }
   // Without view vectors, no row.
   const test::PlateAnalysis plain = test::MakePlateAnalysis(folder / "plain");
