@@ -452,14 +452,12 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
                             .str());
     }
     t.Add("matches", core::JsonArray(matches, "    "));
-    std::vector<std::string> false_spots;
-    for (const std::string& id : r.truth->false_spots) false_spots.push_back(core::JsonString(id));
-    t.Add("false_spot_ids", core::JsonArray(false_spots, "    "));
     const auto ids = [](const std::vector<std::string>& list) {
       std::vector<std::string> quoted;
       for (const std::string& id : list) quoted.push_back(core::JsonString(id));
       return core::JsonArray(quoted, "    ");
     };
+    t.Add("false_spot_ids", ids(r.truth->false_spots));
     t.Add("false_flagged_as_reflections", ids(r.truth->false_flagged_as_reflections));
     t.Add("found_flagged_as_reflections", ids(r.truth->found_flagged_as_reflections));
     std::vector<std::string> partly;

@@ -130,13 +130,9 @@ Eigen::Vector2d SampleOffset(int x, int y, int s, int samples_per_pixel) {
   return Eigen::Vector2d((s % n + jx) / n, (s / n + jy) / n);
 }
 
-float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& per_vertex,
-                          const SampleBuffer& samples, size_t sample_index) {
+double InterpolateOnFace(const ThermalMesh& mesh, const std::vector<double>& per_vertex, int f, double u, double v) {
   assert(per_vertex.size() == mesh.points_in_world.size());
-  const int f = samples.face[sample_index];
-  if (f < 0) return std::numeric_limits<float>::quiet_NaN();
-  const double u = samples.bary_u[sample_index];
-  const double v = samples.bary_v[sample_index];
+  if (f < 0) return std::numeric_limits<double>::quiet_NaN();
   // Float barycentrics can stray a hair below 0 at an edge: clamped, and the half-weight
   // rule taken against their sum.
   const double weights[3] = {std::max(0.0, 1.0 - u - v), std::max(0.0, u), std::max(0.0, v)};
@@ -149,8 +145,14 @@ float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& pe
     weight_sum += weights[k];
     value_sum += weights[k] * value;
   }
-  if (!(weight_sum > 0) || weight_sum < 0.5 * total) return std::numeric_limits<float>::quiet_NaN();
-  return static_cast<float>(value_sum / weight_sum);
+  if (!(weight_sum > 0) || weight_sum < 0.5 * total) return std::numeric_limits<double>::quiet_NaN();
+  return value_sum / weight_sum;
+}
+
+float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& per_vertex,
+                          const SampleBuffer& samples, size_t sample_index) {
+  return static_cast<float>(InterpolateOnFace(mesh, per_vertex, samples.face[sample_index],
+                                              samples.bary_u[sample_index], samples.bary_v[sample_index]));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -98,6 +98,8 @@ Eigen::Vector2d SampleOffset(int x, int y, int s, int samples_per_pixel);
 // towards observed vertices, never extrapolated) or for a miss.
 float InterpolateAtSample(const ThermalMesh& mesh, const std::vector<double>& per_vertex,
                           const SampleBuffer& samples, size_t sample_index);
+// The same rule at barycentrics (u, v) of face f (−1: NaN), e.g. a MeshRenderer::Hit's.
+double InterpolateOnFace(const ThermalMesh& mesh, const std::vector<double>& per_vertex, int f, double u, double v);
 
 // The Embree scene of one mesh, built once (BVH) and rendered from many cameras.
 class MeshRenderer {

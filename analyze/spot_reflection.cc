@@ -13,22 +13,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// The temperature at a hit: barycentric over the face's vertices with a temperature,
-// renormalised; NaN when those carry less than half the weight (unobserved surface).
-double TemperatureAt(const ThermalMesh& mesh, const MeshRenderer::Hit& hit) {
-  const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(hit.face)];
-  const double u = static_cast<double>(hit.bary_u), v = static_cast<double>(hit.bary_v);
-  const double w[3] = {1.0 - u - v, u, v};
-  double sum = 0, weight = 0;
-  for (int k = 0; k < 3; ++k) {
-    const double t = mesh.temperature_c[static_cast<size_t>(face[k])];
-    if (!std::isfinite(t)) continue;
-    sum += w[k] * t;
-    weight += w[k];
-  }
-  return weight >= 0.5 ? sum / weight : std::nan("");
-}
-
 }  // namespace
 
 std::string ReflectionOptions::Check() const {
@@ -95,7 +79,8 @@ void CheckReflections(const ThermalMesh& mesh, const MeshRenderer& renderer, con
         continue;
       }
       if (hit.face < 0) continue;
-      const double hit_c = TemperatureAt(mesh, hit);
+      const double hit_c = InterpolateOnFace(mesh, mesh.temperature_c, hit.face, static_cast<double>(hit.bary_u),
+                                             static_cast<double>(hit.bary_v));
       if (std::isnan(hit_c)) unseen_area += area;
       if (!(spot.hot ? hit_c >= spot.peak_c : hit_c <= spot.peak_c)) continue;
       surface_area += area;

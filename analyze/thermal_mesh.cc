@@ -231,6 +231,9 @@ ThermalMesh MakeThermalMesh(const core::PlyMesh& ply, const std::filesystem::pat
     if (!vx.empty() && !vy.empty() && !vz.empty()) {
       mesh.view_m.resize(kept.size());
       for (size_t i = 0; i < kept.size(); ++i) mesh.view_m[i] = Eigen::Vector3d(vx[i], vy[i], vz[i]);
+    } else if (!vx.empty() || !vy.empty() || !vz.empty()) {
+      mesh.report.warnings.push_back(
+          "temperature_view_x/_y/_z: only some of the three are present; the reflection check is off");
     }
   }
 

@@ -32,6 +32,25 @@ TEST(ThermalMeshTest, ReadsAreaNormalsAndTemperature) {
   for (const auto& n : mesh.normals) EXPECT_NEAR(n.z(), 1.0, 1e-12);
 }
 
+// View vectors load as a triple (NaN kept where unobserved); one or two of the three alone
+// are not a vector: warned about, not used.
+TEST(ThermalMeshTest, ViewVectorsLoadAsATriple) {
+  core::PlyMesh ply = TwoSquares();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ply.AddProperty("temperature_view_x", core::PlyType::kFloat32, {1, 1, 1, 1, 1, 1, 1, nan});
+  ply.AddProperty("temperature_view_y", core::PlyType::kFloat32, {0, 0, 0, 0, 0, 0, 0, 0});
+  const ThermalMesh partial = MakeThermalMesh(ply, "two.ply");
+  EXPECT_TRUE(partial.view_m.empty());
+  ASSERT_EQ(partial.report.warnings.size(), 1u);
+  EXPECT_NE(partial.report.warnings[0].find("temperature_view_x/_y/_z"), std::string::npos);
+  ply.AddProperty("temperature_view_z", core::PlyType::kFloat32, {2, 2, 2, 2, 2, 2, 2, 2});
+  const ThermalMesh full = MakeThermalMesh(ply, "two.ply");
+  ASSERT_EQ(full.view_m.size(), 8u);
+  EXPECT_EQ(full.view_m[0], Eigen::Vector3d(1, 0, 2));
+  EXPECT_TRUE(std::isnan(full.view_m[7].x()));
+  EXPECT_TRUE(full.report.warnings.empty());
+}
+
 TEST(ThermalMeshTest, GraphJoinsSeamVertices) {
   const ThermalMesh mesh = MakeThermalMesh(TwoSquares(), "two.ply");
   const VertexGraph graph = BuildVertexGraph(mesh);
