@@ -117,6 +117,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
   // One BVH for the reflection check and the images.
   std::unique_ptr<MeshRenderer> bvh;
   const bool check_reflections = measurable && config.reflections.check && !mesh.view_m.empty();
+  result.checked_reflections = check_reflections;
   if (inputs.write_images || check_reflections) {
     bvh = std::make_unique<MeshRenderer>(mesh);
     result.timings.bvh_s = bvh->build_seconds();
@@ -131,19 +132,7 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
       CheckReflections(mesh, *bvh, config.reflections, &result.detection->spots);
       result.timings.reflections_s = Seconds(tr);
       for (const Spot& s : result.detection->spots) {
-        if (!s.possible_reflection) continue;
-        const std::string source =
-            s.reflection_source == "operator"
-                ? core::StringPrintf("the thermographer's body (the surface was seen %.0f° from head-on and the spot "
-                                     "peaks at %.1f °C, no warmer than a person)",
-                                     s.incidence_deg, s.peak_c)
-                : core::StringPrintf("a %.1f °C surface at (%.2f, %.2f, %.2f) m", s.reflection_source_c,
-                                     s.reflection_source_in_world.x(), s.reflection_source_in_world.y(),
-                                     s.reflection_source_in_world.z());
-        result.warnings.push_back(core::StringPrintf(
-            "%s may be a reflection: over %.0f %% of it the mirror direction of the views meets %s; re-image it "
-            "from another angle before acting",
-            s.id.c_str(), 100 * s.reflection_fraction, source.c_str()));
+        if (s.possible_reflection) result.warnings.push_back(ReflectionWarning(s));
       }
     }
     for (const Spot& s : result.detection->spots) {
@@ -368,7 +357,9 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
       .Number("boundary_fraction", so.boundary_fraction)
       .Number("min_area_m2", so.min_area_m2)
       .Number("max_area_m2", so.max_area_m2)
-      .Number("background_radius_m", so.background_radius_m);
+      .Number("background_radius_m", so.background_radius_m)
+      .Add("reflections", ReflectionOptionsJson(c.reflections))
+      .Bool("checked_reflections", r.checked_reflections);
   root.Add("detection", d.str());
   std::vector<std::string> bands;
   for (const SeverityBand& b : so.severity.empty() ? NetaSeverityTable() : so.severity) {

@@ -44,6 +44,9 @@ struct AnalyzeResult {
   double observed_area_m2 = 0;   // area of faces whose three vertices have a temperature
   double temperature_min_c = 0, temperature_median_c = 0, temperature_max_c = 0;  // area-weighted
   std::optional<SpotDetection> detection;  // none for a mesh without temperature
+  // Whether the spots went through the reflection check (config.reflections.check, a
+  // temperature to measure and view vectors in the model).
+  bool checked_reflections = false;
   Span span;                                // the overviews' colour-bar span
   Span highlight_band;                      // the normal band of the highlighting views
   std::vector<AnalyzeImage> images;

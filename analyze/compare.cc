@@ -212,6 +212,7 @@ std::vector<SpotChange> MatchSpots(const std::vector<Spot>& before, const std::v
     c->area_before_m2 = s.area_m2;
     c->peak_before_c = s.peak_c;
     c->delta_before_k = s.delta_k;
+    c->before_possible_reflection = s.possible_reflection;
   };
   for (size_t j = 0; j < after.size(); ++j) {
     SpotChange c;
@@ -220,6 +221,7 @@ std::vector<SpotChange> MatchSpots(const std::vector<Spot>& before, const std::v
     c.area_after_m2 = a.area_m2;
     c.peak_after_c = a.peak_c;
     c.delta_after_k = a.delta_k;
+    c.after_possible_reflection = a.possible_reflection;
     if (partner_of_after[j] < 0) {
       c.kinds.push_back("appeared");
     } else {

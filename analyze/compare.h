@@ -72,7 +72,22 @@ struct SpotChange {
   double peak_after_c = std::numeric_limits<double>::quiet_NaN();
   double delta_before_k = std::numeric_limits<double>::quiet_NaN();
   double delta_after_k = std::numeric_limits<double>::quiet_NaN();
+  // The spots' Spot::possible_reflection: a change whose reading may be a reflection (a
+  // spot that "appeared" where the thermographer's body was mirrored, one that "vanished"
+  // because the second scan looked from elsewhere) is not a change of the asset until a
+  // second view confirms it.
+  bool before_possible_reflection = false, after_possible_reflection = false;
 };
+
+// Whether a change stands on a reading that may be a reflection and so needs a second view
+// before it is called a change of the asset: a change (any kind) with either spot flagged,
+// or an unchanged pair with both flagged. An unchanged pair with one spot flagged needs
+// none: the other scan, from another angle, read the same.
+inline bool NeedsSecondView(const SpotChange& change) {
+  const bool either = change.before_possible_reflection || change.after_possible_reflection;
+  const bool both = change.before_possible_reflection && change.after_possible_reflection;
+  return change.kinds.empty() ? both : either;
+}
 
 // Pairs BEFORE's spots with AFTER's: same kind (hot/cold), centroids within the gate (see
 // CompareOptions), one-to-one, closest pairs first (ties by list order). A pair's kinds:
@@ -80,7 +95,7 @@ struct SpotChange {
 // peak_c rose/fell by more than peak_change_k (for a cold spot "cooled" means its minimum
 // got colder). Unpaired BEFORE spots "vanished", unpaired AFTER spots "appeared".
 // Order: AFTER's spots in their order (paired or appeared), then the vanished in BEFORE's
-// order. Throws std::invalid_argument when options.Check() fails.
+// order. The reflection flags are copied from the spots (run CheckReflections first). Throws std::invalid_argument when options.Check() fails.
 std::vector<SpotChange> MatchSpots(const std::vector<Spot>& before, const std::vector<Spot>& after,
                                    const Alignment& alignment, const CompareOptions& options);
 

@@ -1,5 +1,6 @@
 #include "analyze/compare.h"
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -206,6 +207,43 @@ TEST(CompareTest, MatchSpots) {
   EXPECT_TRUE(std::isnan(c[6].area_after_m2));
   EXPECT_EQ(c[7].before_id, "H4");
   EXPECT_EQ(Kinds(c[7]), "vanished");
+}
+
+// The reflection flags travel with the spots, and a change needs a second view when it
+// stands on a flagged reading: any change with either flagged, an unchanged pair only when
+// both scans' readings are flagged (one unflagged reading from another angle confirms it).
+TEST(CompareTest, ChangesOnPossibleReflectionsNeedASecondView) {
+  const Eigen::Isometry3d T = Pose(5, {0, 0, 1}, {0.1, 0, 0});
+  const Eigen::Vector3d p1(0, 0, 1), p2(1, 0, 1), p3(2, 0, 1), p4(3, 0, 1);
+  auto flagged = [](Spot s) {
+    s.possible_reflection = true;
+    return s;
+  };
+  const std::vector<Spot> before{
+      flagged(MakeSpot("H1", true, p1, 0.01, 0.001, 30)),  // unchanged, flagged in BEFORE only
+      flagged(MakeSpot("H2", true, p2, 0.01, 0.001, 30)),  // unchanged, flagged in both
+      MakeSpot("H3", true, p3, 0.01, 0.001, 30),           // heated, flagged in AFTER only
+      flagged(MakeSpot("H4", true, p4, 0.01, 0.001, 30)),  // vanished, was flagged
+  };
+  const std::vector<Spot> after{
+      MakeSpot("H1", true, T * p1, 0.01, 0.001, 30),
+      flagged(MakeSpot("H2", true, T * p2, 0.01, 0.001, 30)),
+      flagged(MakeSpot("H3", true, T * p3, 0.01, 0.001, 35)),
+      MakeSpot("H5", true, Eigen::Vector3d(5, 5, 5), 0.01, 0.001, 31),  // appeared, unflagged
+  };
+  const std::vector<SpotChange> c = MatchSpots(before, after, Known(T), CompareOptions{});
+  ASSERT_EQ(c.size(), 5u);
+  const std::vector<std::array<bool, 3>> expected = {
+      {true, false, false}, {true, true, true}, {false, true, true}, {false, false, false}, {true, false, true}};
+  for (size_t i = 0; i < c.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(c[i].before_possible_reflection, expected[i][0]);
+    EXPECT_EQ(c[i].after_possible_reflection, expected[i][1]);
+    EXPECT_EQ(NeedsSecondView(c[i]), expected[i][2]);
+  }
+  EXPECT_EQ(Kinds(c[0]), "");
+  EXPECT_EQ(Kinds(c[2]), "heated");
+  EXPECT_EQ(Kinds(c[4]), "vanished");
 }
 
 TEST(CompareTest, OptionsCheck) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "analyze/image_out.h"
 #include "analyze/output_support.h"
 #include "analyze/render.h"
+#include "analyze/spot_reflection.h"
 #include "analyze/view_select.h"
 #include "analyze/views.h"
 #include "core/atomic_file.h"
@@ -87,6 +89,7 @@ std::string ChangeLabelText(const SpotChange& c) {
   }
   if (Has(c, "appeared")) text += " ΔT " + Signed(c.delta_after_k, 1) + " K";
   if (Has(c, "vanished")) text += ", was ΔT " + Signed(c.delta_before_k, 1) + " K";
+  if (NeedsSecondView(c)) text += " (reflection?)";
   return text;
 }
 
@@ -202,8 +205,41 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
   t = Clock::now();
   result.before_spots = DetectSpots(before, config.spots);
   result.after_spots = DetectSpots(after, config.spots);
-  result.changes = MatchSpots(result.before_spots.spots, result.after_spots.spots, a, compare);
   result.timings.detect_s = Seconds(t);
+
+  // The reflection check, as analyze runs it, on each model's spots with that model's own
+  // views: a spot that appeared or vanished only because one scan looked at a shiny surface
+  // head-on (or at a hot pipe's mirror image) is the classic false change. AFTER's BVH is
+  // the images' one.
+  const auto checkable = [&](const ThermalMesh& mesh, const SpotDetection& detection) {
+    return config.reflections.check && !mesh.view_m.empty() && !detection.spots.empty();
+  };
+  result.before_checked_reflections = checkable(before, result.before_spots);
+  result.after_checked_reflections = checkable(after, result.after_spots);
+  std::unique_ptr<MeshRenderer> after_bvh;
+  if (inputs.write_images || result.after_checked_reflections) {
+    after_bvh = std::make_unique<MeshRenderer>(after);
+    result.timings.bvh_s += after_bvh->build_seconds();
+  }
+  if (result.before_checked_reflections) {
+    const MeshRenderer before_bvh(before);
+    result.timings.bvh_s += before_bvh.build_seconds();
+    t = Clock::now();
+    CheckReflections(before, before_bvh, config.reflections, &result.before_spots.spots);
+    result.timings.reflections_s += Seconds(t);
+  }
+  if (result.after_checked_reflections) {
+    t = Clock::now();
+    CheckReflections(after, *after_bvh, config.reflections, &result.after_spots.spots);
+    result.timings.reflections_s += Seconds(t);
+  }
+  for (const Spot& s : result.before_spots.spots) {
+    if (s.possible_reflection) result.warnings.push_back("BEFORE: " + ReflectionWarning(s));
+  }
+  for (const Spot& s : result.after_spots.spots) {
+    if (s.possible_reflection) result.warnings.push_back("AFTER: " + ReflectionWarning(s));
+  }
+  result.changes = MatchSpots(result.before_spots.spots, result.after_spots.spots, a, compare);
 
   // Spans: the difference symmetric about 0 (white = no change), wide enough for every
   // change and for the highlighting band inside it; AFTER's temperature as analyze draws it.
@@ -238,8 +274,7 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
 
   if (inputs.write_images) {
     t = Clock::now();
-    const MeshRenderer renderer(after);
-    result.timings.bvh_s = renderer.build_seconds();
+    const MeshRenderer& renderer = *after_bvh;
     const ViewSelectOptions select = SelectOptions(config);
     std::vector<NamedView> views = ConfiguredViews(after, config);
     std::vector<ChangePlace> places;
@@ -466,6 +501,9 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                             .Number("area_change_relative", inputs.compare.area_change_relative)
                             .Number("area_change_sigmas", inputs.compare.area_change_sigmas)
                             .Number("peak_change_k", inputs.compare.peak_change_k)
+                            .Add("reflections", ReflectionOptionsJson(c.reflections))
+                            .Bool("before_checked_reflections", r.before_checked_reflections)
+                            .Bool("after_checked_reflections", r.after_checked_reflections)
                             .str());
   std::vector<std::string> before_spots, after_spots, changes;
   for (const Spot& s : r.before_spots.spots) before_spots.push_back(SpotJson(s, {}));
@@ -491,6 +529,9 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                           .Number("peak_change_k", x.peak_after_c - x.peak_before_c)
                           .Number("delta_before_k", x.delta_before_k)
                           .Number("delta_after_k", x.delta_after_k)
+                          .Bool("before_possible_reflection", x.before_possible_reflection)
+                          .Bool("after_possible_reflection", x.after_possible_reflection)
+                          .Bool("needs_second_view", NeedsSecondView(x))
                           .Add("images", StringsJson(images))
                           .str());
   }
@@ -515,6 +556,7 @@ std::string CompareJson(const ThermalMesh& before, const ThermalMesh& after, con
                           .Number("align_s", r.timings.align_s)
                           .Number("difference_s", r.timings.difference_s)
                           .Number("detect_s", r.timings.detect_s)
+                          .Number("reflections_s", r.timings.reflections_s)
                           .Number("bvh_build_s", r.timings.bvh_s)
                           .Number("render_s", r.timings.render_s)
                           .Int("renders", r.timings.renders)
@@ -550,6 +592,7 @@ std::string FormatCompareSummary(const CompareResult& r) {
     }
     std::string kinds;
     for (size_t k = 0; k < x.kinds.size(); ++k) kinds += (k ? "," : "") + x.kinds[k];
+    if (NeedsSecondView(x)) kinds += " (refl.?)";
     const auto num = [](double v, double scale) { return std::isfinite(v) ? FixedText(scale * v, 1) : std::string("—"); };
     s << "  " << Pad(ChangeName(x), 10) << Pad(x.before_id.empty() ? "—" : x.before_id, 7)
       << Pad(x.after_id.empty() ? "—" : x.after_id, 6) << Pad(kinds, 18) << Pad(num(x.peak_before_c, 1), 6, true)
@@ -559,6 +602,19 @@ std::string FormatCompareSummary(const CompareResult& r) {
   const size_t unchanged = static_cast<size_t>(
       std::count_if(r.changes.begin(), r.changes.end(), [](const SpotChange& x) { return x.kinds.empty(); }));
   s << "  " << unchanged << " spot" << (unchanged == 1 ? "" : "s") << " unchanged\n";
+  std::string verify;
+  int to_verify = 0;
+  for (const SpotChange& x : r.changes) {
+    if (!NeedsSecondView(x)) continue;
+    const char* scans = x.before_possible_reflection && x.after_possible_reflection ? "both scans"
+                        : x.after_possible_reflection                              ? "AFTER"
+                                                                                   : "BEFORE";
+    verify += (to_verify++ ? ", " : "") + ChangeName(x) + " (" + scans + ")";
+  }
+  if (to_verify > 0) {
+    s << "  verify: " << verify << (to_verify == 1 ? " may be a reflection" : " may be reflections")
+      << " in that scan: re-image from another angle before calling it a change\n";
+  }
   if (!r.images.empty()) {
     s << "  images: " << r.images.size() << " in " << (r.out_folder / "images").string() << " ("
       << r.timings.renders << " renders)\n";

@@ -3,8 +3,9 @@
 // The comparison behind `heatwave compare BEFORE AFTER`: the two models of one asset are
 // aligned (ICP from a coarse start, analyze/align.h), BEFORE's temperature is carried onto
 // AFTER's surface and subtracted (analyze/compare.h), the spots of both are detected with
-// the same options and paired (appeared, vanished, grew, shrank, heated, cooled), and the
-// difference is drawn on the AFTER model. Everything is written into one output folder:
+// the same options, checked for reflections where the models carry view vectors, and paired
+// (appeared, vanished, grew, shrank, heated, cooled), and the difference is drawn on the AFTER
+// model. Everything is written into one output folder:
 // images/ and compare.json, each file atomically.
 
 #include <filesystem>
@@ -40,8 +41,10 @@ struct CompareInputs {
 };
 
 struct CompareTimings {
-  double align_s = 0, difference_s = 0, detect_s = 0, bvh_s = 0, render_s = 0, compose_s = 0, write_s = 0,
-         total_s = 0;
+  // reflections_s: the reflection check of both models' spots, their BVH builds excluded
+  // (in bvh_s: AFTER's, shared with the images, and BEFORE's when it was checked).
+  double align_s = 0, difference_s = 0, detect_s = 0, reflections_s = 0, bvh_s = 0, render_s = 0, compose_s = 0,
+         write_s = 0, total_s = 0;
   int renders = 0;
 };
 
@@ -54,6 +57,9 @@ struct CompareResult {
   double after_mean_edge_m = 0;  // mean edge length of AFTER's faces, metres (the residual's scale)
   TemperatureDifference difference;
   SpotDetection before_spots, after_spots;
+  // Whether each model's spots went through the reflection check (config.reflections.check
+  // and view vectors in the model).
+  bool before_checked_reflections = false, after_checked_reflections = false;
   std::vector<SpotChange> changes;  // MatchSpots order
   Span span_k;            // the difference images' colour-bar span, K, symmetric about 0
   Span highlight_band_k;  // ±config.spots.min_delta_k

@@ -23,6 +23,16 @@ std::string SpanJson(const Span& span) {
   return "[" + core::JsonNumber(span.min_c) + ", " + core::JsonNumber(span.max_c) + "]";
 }
 
+std::string ReflectionOptionsJson(const ReflectionOptions& options) {
+  return core::JsonObject()
+      .Bool("check", options.check)
+      .Number("operator_radius_m", options.operator_radius_m)
+      .Number("operator_max_c", options.operator_max_c)
+      .Number("min_fraction", options.min_fraction)
+      .Int("max_faces", options.max_faces)
+      .str();
+}
+
 std::string StringsJson(const std::vector<std::string>& values) {
   std::string s;
   for (size_t k = 0; k < values.size(); ++k) s += (k ? ", " : "") + core::JsonString(values[k]);

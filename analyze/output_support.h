@@ -25,6 +25,9 @@ std::string SpanJson(const Span& span);
 std::string StringsJson(const std::vector<std::string>& values);
 // Projection, size, field of view or height, position and orientation (q_xyzw).
 std::string CameraJson(const Camera& camera);
+// The reflection check's options (check, operator_radius_m, operator_max_c, min_fraction,
+// max_faces).
+std::string ReflectionOptionsJson(const ReflectionOptions& options);
 // Every figure of a spot; `image_files` its close-ups (may be empty).
 std::string SpotJson(const Spot& spot, const std::vector<std::string>& image_files);
 // A colour-bar span rounded outwards to its ticks' step (widened to 0.1 when narrower), so

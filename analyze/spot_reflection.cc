@@ -112,4 +112,20 @@ void CheckReflections(const ThermalMesh& mesh, const MeshRenderer& renderer, con
   }
 }
 
+std::string ReflectionWarning(const Spot& s) {
+  assert(s.possible_reflection);
+  const std::string source =
+      s.reflection_source == "operator"
+          ? core::StringPrintf("the thermographer's body (the surface was seen %.0f° from head-on and the spot peaks at "
+                               "%.1f °C, no warmer than a person)",
+                               s.incidence_deg, s.peak_c)
+          : core::StringPrintf("a %.1f °C surface at (%.2f, %.2f, %.2f) m", s.reflection_source_c,
+                               s.reflection_source_in_world.x(), s.reflection_source_in_world.y(),
+                               s.reflection_source_in_world.z());
+  return core::StringPrintf(
+      "%s may be a reflection: over %.0f %% of it the mirror direction of the views meets %s; re-image it from another "
+      "angle before acting",
+      s.id.c_str(), 100 * s.reflection_fraction, source.c_str());
+}
+
 }  // namespace hw::analyze

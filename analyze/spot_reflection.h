@@ -55,4 +55,10 @@ struct ReflectionOptions {
 void CheckReflections(const ThermalMesh& mesh, const MeshRenderer& renderer, const ReflectionOptions& options,
                       std::vector<Spot>* spots);
 
+// The warning a flagged spot gets, one line: its id, the fraction, the source (the
+// thermographer, with the incidence and peak that make it one, or the surface's temperature
+// and place, world frame) and "re-image it from another angle before acting". For a spot
+// with possible_reflection set.
+std::string ReflectionWarning(const Spot& spot);
+
 }  // namespace hw::analyze

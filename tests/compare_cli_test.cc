@@ -144,7 +144,10 @@ TEST(CompareCliTest, AlignsAndListsTheSpotChanges) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("spots: 2 before, 2 after"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("verify"), std::string::npos) << r.output;
   const std::string json = hw::core::ReadFile(dir / "out" / "compare.json", 1 << 24);
+  EXPECT_NE(json.find("\"before_checked_reflections\": false, \"after_checked_reflections\": false"),
+            std::string::npos);
 
   // The alignment: both tessellations sample the same planes, so the pose is exact to well
   // below a millimetre and 0.05° (align_test's noiseless bound on a room).
@@ -209,6 +212,73 @@ TEST(CompareCliTest, AlignsAndListsTheSpotChanges) {
                                    " --out " + (dir / "out").string() + " -q --no-images --overwrite");
   EXPECT_EQ(replaced.exit_code, 0) << replaced.output;
   EXPECT_FALSE(fs::exists(dir / "out" / "images"));
+}
+
+// Every vertex's view vector (temperature_view_x/_y/_z, what reconstruct writes: to the
+// thermal camera, world frame, m) towards `camera` (BEFORE's frame, carried by `transform`
+// as the scene's vertices are).
+void AddViews(hw::core::PlyMesh* ply, const Eigen::Vector3d& camera, const Eigen::Isometry3d& transform) {
+  std::vector<double> view[3];
+  const hw::core::PlyProperty* x = ply->Find("x");
+  const hw::core::PlyProperty* y = ply->Find("y");
+  const hw::core::PlyProperty* z = ply->Find("z");
+  for (size_t i = 0; i < x->values.size(); ++i) {
+    const Eigen::Vector3d v = transform * camera - Eigen::Vector3d(x->values[i], y->values[i], z->values[i]);
+    for (int k = 0; k < 3; ++k) view[k].push_back(v[k]);
+  }
+  ply->AddProperty("temperature_view_x", hw::core::PlyType::kFloat32, view[0]);
+  ply->AddProperty("temperature_view_y", hw::core::PlyType::kFloat32, view[1]);
+  ply->AddProperty("temperature_view_z", hw::core::PlyType::kFloat32, view[2]);
+}
+
+// Two scans of shiny surfaces, each flagging a spot as the thermographer's reflection: BEFORE
+// looked straight down at A (30 °C, no warmer than a person: its mirror ray returns to the
+// camera), AFTER straight down at D, a 31 °C disc that "appeared" on the floor (AFTER's H1:
+// its ΔT is the larger; A is H2). Both flags are in the warnings and compare.json; D's
+// appearance is marked for a second view, A's unchanged pair is not (AFTER read it the same
+// from 29° off head-on, where its mirror ray leaves the scene: the second view was taken).
+// Without view vectors (the first test) nothing is checked.
+TEST(CompareCliTest, ChangesThatMayBeReflectionsAreMarkedForVerification) {
+  const fs::path dir = TestFolder();
+  const Disc d{{-0.25, 0.25, 0}, 0.08, 31};
+  hw::core::PlyMesh before = Scene(0.02, {kA}, Eigen::Isometry3d::Identity());
+  AddViews(&before, kA.centre + Eigen::Vector3d(0, 0, 1.2), Eigen::Isometry3d::Identity());
+  hw::core::PlyMesh after = Scene(0.018, {kA, d}, Motion());
+  AddViews(&after, d.centre + Eigen::Vector3d(0, 0, 1.2), Motion());
+  hw::core::WritePly(dir / "before.ply", before);
+  hw::core::WritePly(dir / "after.ply", after);
+  const Result r = Heatwave("compare " + (dir / "before.ply").string() + " " + (dir / "after.ply").string() +
+                            " --out " + (dir / "out").string() + " --no-images --threads 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("appeared (refl.?)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("verify: H1 (AFTER) may be a reflection in that scan"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("warning: BEFORE: H1 may be a reflection: over 100 % of it"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("warning: AFTER: H1 may be a reflection: over 100 % of it"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("AFTER: H2 may be"), std::string::npos) << r.output;
+  const std::string json = hw::core::ReadFile(dir / "out" / "compare.json", 1 << 24);
+  const std::string appeared = ChangeLine(json, "[\"appeared\"]");
+  ASSERT_FALSE(appeared.empty()) << json;
+  EXPECT_NEAR(NumberAfter(appeared, "peak_after_c"), 31, 0.5);
+  EXPECT_NE(appeared.find("\"before_possible_reflection\": false, \"after_possible_reflection\": true, "
+                          "\"needs_second_view\": true"),
+            std::string::npos)
+      << appeared;
+  const std::string unchanged = ChangeLine(json, "[]");
+  ASSERT_FALSE(unchanged.empty()) << json;
+  EXPECT_NE(unchanged.find("\"before_possible_reflection\": true, \"after_possible_reflection\": false, "
+                           "\"needs_second_view\": false"),
+            std::string::npos)
+      << unchanged;
+  EXPECT_NE(json.find("\"before_checked_reflections\": true, \"after_checked_reflections\": true"),
+            std::string::npos);
+
+  // The check off (analyze.yaml): the same changes, nothing flagged.
+  const fs::path config = Write(dir, "off.yaml", "version: 1\nreflections:\n  check: false\n");
+  const Result off = Heatwave("compare " + (dir / "before.ply").string() + " " + (dir / "after.ply").string() +
+                              " --out " + (dir / "off").string() + " --no-images --config " + config.string());
+  ASSERT_EQ(off.exit_code, 0) << off.output;
+  EXPECT_EQ(off.output.find("refl"), std::string::npos) << off.output;
+  EXPECT_NE(off.output.find("appeared"), std::string::npos) << off.output;
 }
 
 TEST(CompareCliTest, BadInputsAreOneLineErrors) {
