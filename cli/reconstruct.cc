@@ -73,6 +73,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
   raycast.Number("step_fraction", r.raycast.step_fraction)
       .Int("level", r.raycast_level)
       .Int("interval", r.raycast_interval)
+      .Bool("integrate_between_raycasts", r.integrate_between_raycasts)
       .Number("reuse_max_correction_m", r.reuse_max_correction_m)
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg);
   mesh.Number("min_weight", r.mesh.min_weight)
@@ -104,6 +105,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
       .Number("timestamp_s", f.timestamp_s)
       .String("status", reconstruct::FrameStatusName(f.status))
       .Bool("fused", f.fused)
+      .Bool("integrated", f.integrated)
       .Bool("coloured", f.coloured)
       .Number("valid_depth_fraction", f.valid_depth_fraction);
   if (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered ||
@@ -149,7 +151,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .Int("posed", r.posed).Int("unposed", r.unposed).Int("held", r.held)
       .Int("widened", r.widened)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
-      .Int("coloured", r.coloured);
+      .Int("coloured", r.coloured)
+      .Int("integrated", r.integrated);
   const double processed = std::max<size_t>(1, reconstruction.frames().size());
   timings.Number("load_s", r.load_seconds)
       .Number("process_s", r.process_seconds)
@@ -323,6 +326,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   }
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
+    r.integrated += f.integrated;
     r.coloured += f.coloured;
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
@@ -415,6 +419,11 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                             "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
                             r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
                             r.missing, r.unposed, r.coloured);
+  if (r.integrated < r.fused) {
+    out += core::StringPrintf("Fusion     depth of %d of the %d fused frames integrated (the others tracked between "
+                              "raycasts: --integrate-between-raycasts false)\n",
+                              r.integrated, r.fused);
+  }
   if (r.widened > 0) {
     out += core::StringPrintf("Tracking   %d frames aligned only on the widened association gate "
                               "(no velocity yet, or more motion than the gate)\n", r.widened);
@@ -502,6 +511,10 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--raycast-interval", r.raycast_interval,
                  "fused frames between model raycasts for tracking (1: after every frame)")
+      ->capture_default_str();
+  app.add_option("--integrate-between-raycasts", r.integrate_between_raycasts,
+                 "integrate the depth of the frames tracked between two raycasts too (false: only of the "
+                 "frames after which the model is raycast; the others still get a pose)")
       ->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();

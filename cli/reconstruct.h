@@ -71,6 +71,7 @@ struct ReconstructCommandResult {
   // The rig's depth_correction applied to every depth frame: "17 x 13 nodes", "" = none.
   std::string depth_correction;
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
+  int integrated = 0;  // fused frames whose depth went into the volume
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
   int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)

@@ -269,7 +269,6 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
-  Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   // A posed frame needs no model view (the next posed one does not track against it).
   // After a frame tracked normally, the view may wait for raycast_interval fused frames;
   // after any other (the first, a recovery, a retry, held directions) it is cast at once.
@@ -277,9 +276,14 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                       !record.from_last_pose && record.held_directions == 0 &&
                       record.correction_m <= options_.reuse_max_correction_m &&
                       record.correction_deg <= options_.reuse_max_correction_deg;
+  const bool raycast =
+      !frame.world_from_depth && (!model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval);
+  if (options_.integrate_between_raycasts || raycast || frame.world_from_depth) {
+    Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
+  }
   if (frame.world_from_depth) {
     model_.reset();
-  } else if (!model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval) {
+  } else if (raycast) {
     UpdateModel(world_from_depth, record);
   }
   record.blocks = volume_.NumBlocks();
@@ -424,6 +428,7 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
   }
   volume_.Integrate(pyramid.raw_depth_m, depth_undistorter_.pinhole(), world_from_depth,
                     colour ? &*colour : nullptr);
+  record.integrated = true;
   record.integrate_ms = Ms(start);
 }
 

@@ -63,6 +63,13 @@ struct ReconstructionOptions {
   // costliest stage (README, Reconstruction: Speed); what skipping it costs in accuracy is
   // measured there too.
   int raycast_interval = 2;
+  // Integrate the depth of the frames tracked between two raycasts too (true), or only of
+  // the frames after which the model is raycast (false: every raycast_interval-th frame
+  // tracked normally and every frame that raycasts at once; posed frames always). The frames
+  // between still get their pose (the trajectory, thermal mapping) but add nothing to the
+  // volume: at 30 Hz a surface is seen in dozens of frames, and integration is, with the
+  // raycast, the costliest stage (README, Reconstruction: Speed, where both are measured).
+  bool integrate_between_raycasts = false;
   // m, > 0: 10 mm is above 90 % of the corrections of smooth hand-held frames (3 mm median,
   // 6-8 mm at the 90th percentile at 30 Hz and at 10 Hz), below a jerk's (57 mm).
   double reuse_max_correction_m = 0.01;
@@ -124,7 +131,10 @@ struct FrameRecord {
   int index = 0;            // order of arrival
   double timestamp_s = 0;   // depth clock, s
   FrameStatus status = FrameStatus::kNoDepth;
-  bool fused = false;
+  bool fused = false;       // given a pose in the trajectory (tracked, recovered, posed)
+  // Its depth went into the volume: every fused frame, or only those after which the model
+  // is raycast (ReconstructionOptions::integrate_between_raycasts false).
+  bool integrated = false;
   bool coloured = false;    // an rgb frame was fused with it
   double valid_depth_fraction = 0;
   IcpStatus icp_status = IcpStatus::kOk;  // of the last attempt (tracked / lost frames)

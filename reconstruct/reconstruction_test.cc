@@ -382,6 +382,35 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   EXPECT_GT(recovered, 0);
 }
 
+// integrate_between_raycasts false (the default): exactly the frames after which the model
+// is raycast are integrated (the others keep their pose, with integrate_ms 0), and tracking
+// is as accurate as integrating every frame (the default's surface against the truth:
+// ModelSurfaceLiesOnTheTruthMesh).
+TEST(Reconstruction, FramesBetweenRaycastsAreTrackedButNotIntegrated) {
+  const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  ReconstructionOptions all = TestOptions(), between = TestOptions();
+  all.integrate_between_raycasts = true;
+  between.integrate_between_raycasts = false;
+  const Outcome reference = ReconstructAndEvaluate(smooth, all);
+  const Outcome run = ReconstructAndEvaluate(smooth, between);
+  int integrated = 0;
+  for (const FrameRecord& f : run.frames) {
+    ASSERT_TRUE(f.fused) << "frame " << f.index;
+    // The first frame initialises the model and raycasts; so does every other integrated one.
+    EXPECT_EQ(f.integrated, f.raycast_ms > 0) << "frame " << f.index;
+    EXPECT_EQ(f.integrate_ms > 0, f.integrated) << "frame " << f.index;
+    integrated += f.integrated;
+  }
+  for (const FrameRecord& f : reference.frames) EXPECT_TRUE(f.integrated) << "frame " << f.index;
+  EXPECT_LT(integrated, static_cast<int>(run.frames.size()));
+  EXPECT_GT(integrated, static_cast<int>(run.frames.size()) / 2 - 1);  // interval 2: at least every other
+  EXPECT_EQ(run.eval.associated_pairs, static_cast<int>(run.frames.size()));  // every frame has a pose
+  // The bound of every frame's (10 mm), and within 1 mm of the reference (the run with every
+  // frame integrated): a surface is seen in all of this scan's frames, half of them fuse it.
+  EXPECT_LT(run.eval.ate_m.rmse, 0.010);
+  EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.001);
+}
+
 TEST(ReconstructionOptions, CheckNamesTheField) {
   EXPECT_EQ(ReconstructionOptions().Check(), "");
   ReconstructionOptions o;

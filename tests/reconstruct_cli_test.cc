@@ -72,9 +72,12 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
                           "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
-                          "\"interval\": 2"}) {
+                          "\"interval\": 2", "\"integrate_between_raycasts\": false", "\"integrated\": true",
+                          "\"integrated\": false"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
+  // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
+  EXPECT_NE(r.output.find("Fusion     depth of "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" of them); decoding"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out / hw::core::kRunMarkerName));
   // Its trajectory evaluates with eval-trajectory too.
