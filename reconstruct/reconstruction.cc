@@ -278,6 +278,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                       record.correction_deg <= options_.reuse_max_correction_deg;
   const bool raycast =
       !frame.world_from_depth && (!model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval);
+  // Without integrate_between_raycasts a frame that reuses the model view only tracks: its
+  // depth would change a volume nobody looks at until the next raycast, whose frame fuses
+  // nearly the same surfaces.
   if (options_.integrate_between_raycasts || raycast || frame.world_from_depth) {
     Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   }

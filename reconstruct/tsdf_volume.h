@@ -190,8 +190,10 @@ class TsdfSampler {
     kNoBlock,     // the block holding the cell's lowest corner voxel does not exist:
                   // nothing to find before leaving that block (raycasting skips it whole)
   };
-  // Trilinear sdf (units of truncation_m) at a world point (metres).
-  Status Sample(const Eigen::Vector3f& point_in_world, float& sdf) {
+  // Trilinear sdf (units of truncation_m) at a world point (metres). Always inlined: GCC
+  // kept it a call in the ray march, and inlining it makes raycasting 3-6 % faster with the
+  // same bits (README, Measured).
+  [[gnu::always_inline]] Status Sample(const Eigen::Vector3f& point_in_world, float& sdf) {
     const float gx = point_in_world.x() * inv_voxel_m_, gy = point_in_world.y() * inv_voxel_m_,
                 gz = point_in_world.z() * inv_voxel_m_;
     const int ix = FloorToInt(gx), iy = FloorToInt(gy), iz = FloorToInt(gz);
