@@ -273,7 +273,6 @@ CompareResult CompareModels(const ThermalMesh& before, const ThermalMesh& after,
   }
 
   if (inputs.write_images) {
-    t = Clock::now();
     const MeshRenderer& renderer = *after_bvh;
     const ViewSelectOptions select = SelectOptions(config);
     std::vector<NamedView> views = ConfiguredViews(after, config);
