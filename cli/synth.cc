@@ -20,9 +20,11 @@
 #include "core/error.h"
 #include "core/output_folder.h"
 #include "core/progress.h"
+#include "core/scan.h"
 #include "core/strings.h"
 #include "fixtures/bench_session.h"
 #include "fixtures/calibration_sessions.h"
+#include "fixtures/passer.h"
 #include "fixtures/scenes.h"
 #include "fixtures/synth_scan.h"
 
@@ -236,6 +238,7 @@ struct SynthArguments {
   std::optional<double> thermal_vignetting;
   bool no_shadows = false;
   bool no_auto_exposure = false;
+  std::optional<double> passer_crossing;
   bool overwrite = false;
   bool list = false;
 };
@@ -297,6 +300,9 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
   if (args.no_shadows) o.colour.shadows = false;
   if (args.no_auto_exposure) o.auto_exposure.exposure = o.auto_exposure.white_balance = false;
   ThrowIfInvalid(o.Check());
+  if (args.passer_crossing && !(*args.passer_crossing >= 0 && *args.passer_crossing <= 1)) {
+    throw UsageError(core::StringPrintf("--passer: must be in [0, 1], got %g", *args.passer_crossing));
+  }
   const std::unique_ptr<core::OutputFolder> folder = PrepareOutputFolder(args.out, args.overwrite);
 
   LazyProgress progress("render", common.quiet);
@@ -304,7 +310,28 @@ int RunScan(const SynthArguments& args, const CommonOptions& common) {
       fixtures::SynthesizeScan(o, args.out, [&](int done, int total) { progress(done, total); });
   progress.Finish();
   folder->Commit();
-  if (!common.quiet) std::cout << FormatScanSummary(o, summary) << std::flush;
+  std::optional<fixtures::PasserSummary> passer;
+  if (args.passer_crossing) {
+    // An edit of the finished scan, under its own run marker: interrupted, the folder reads
+    // as incomplete, not as a scan with the person in some frames only.
+    const core::Scan scan = core::Scan::Open(args.out);
+    core::OutputFolder edit(args.out, "heatwave synth --passer");
+    fixtures::PasserOptions p;
+    p.crossing_fraction = *args.passer_crossing;
+    p.seed = args.seed;
+    passer = fixtures::AddPasser(scan, p);
+    edit.Commit();
+  }
+  if (!common.quiet) {
+    std::cout << FormatScanSummary(o, summary);
+    if (passer) {
+      std::cout << core::StringPrintf(
+          "Passer     crossing the view at %.3f s; in %d depth, %d colour and %d thermal frames "
+          "(not in truth/)\n",
+          passer->crossing_time_s, passer->depth_frames, passer->rgb_frames, passer->thermal_frames);
+    }
+    std::cout << std::flush;
+  }
   return kExitOk;
 }
 
@@ -544,6 +571,10 @@ int RunSynth(int argc, char** argv) {
   app.add_flag("--no-shadows", args.no_shadows, "no cast shadows in colour frames");
   app.add_flag("--no-auto-exposure", args.no_auto_exposure,
                "fixed colour gains (default: auto exposure and white balance with a lag)");
+  app.add_option("--passer", args.passer_crossing,
+                 "draw a person walking across the view (a 31 °C capsule at 1.2 m/s, 0.6 of the "
+                 "median depth away) into depth, colour and thermal, crossing the optical axis at "
+                 "this fraction of the scan, [0, 1]; not part of truth/ (fixtures/passer.h)");
   app.add_flag("--overwrite", args.overwrite,
                "replace the scan in a non-empty --out folder (other files are kept)");
   app.add_flag("--list", args.list, "list the scenes and sessions and exit");
@@ -593,7 +624,8 @@ int RunSynth(int argc, char** argv) {
           {args.thermal_vignetting.has_value(), "--thermal-vignetting"},
           {args.no_depth_artefacts, "--no-depth-artefacts"},
           {args.no_shadows, "--no-shadows"},
-          {args.no_auto_exposure, "--no-auto-exposure"}};
+          {args.no_auto_exposure, "--no-auto-exposure"},
+          {args.passer_crossing.has_value(), "--passer"}};
       // The bench takes the clock offsets and frame rates as scans do.
       const bool bench = args.session == "bench";
       const std::set<std::string> bench_takes = {"--rgb-offset", "--thermal-offset", "--depth-rate", "--rgb-rate",
