@@ -123,6 +123,8 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
       {"synth --scene equipment-small --loop-duration 30" + out, "--loop-duration: applies to --trajectory loop"},
       {"synth --scene equipment-small --trajectory loop --path-start -2" + out, "path_start_s"},
       {"synth --session latency --path-start 3" + out, "--path-start"},
+      {"synth --scene equipment-small --passer 1.5" + out, "--passer: must be in [0, 1]"},
+      {"synth --session latency --passer 0.5" + out, "--passer"},
   };
   for (const auto& [args, needle] : cases) {
     const hw::test::CommandResult r = Heatwave(args);
@@ -131,6 +133,31 @@ TEST(SynthCli, BadOptionsAreExitCode2WithOneLine) {
     EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << args << "\n" << r.output;
   }
   EXPECT_FALSE(fs::exists(FreshPath("bad") / "rig.yaml"));
+}
+
+// --passer: the scan renders, then the walker is drawn in (the summary says where and in
+// how many frames), and the folder is a complete scan again afterwards.
+TEST(SynthCli, DrawsAPasserIntoAScan) {
+  const fs::path out = FreshPath("passer") / "scan";
+  const hw::test::CommandResult r =
+      Heatwave("synth --scene equipment-small --duration 2 --seed 3 --passer 0.5 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Passer     crossing the view at"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(not in truth/)"), std::string::npos) << r.output;
+  const hw::core::Scan scan = hw::core::Scan::Open(out);  // throws if left incomplete
+  EXPECT_GT(scan.NumFrames(Stream::kDepth), 0);
+  // The same scan without the passer differs in some depth frames, not in truth/.
+  const fs::path plain = FreshPath("plain") / "scan";
+  ASSERT_EQ(Heatwave("synth --scene equipment-small --duration 2 --seed 3 -q --out " + plain.string()).exit_code, 0);
+  const auto with = ReadTree(out), without = ReadTree(plain);
+  int depth_changed = 0;
+  for (const auto& [name, bytes] : without) {
+    if (name.rfind("truth/", 0) == 0) {
+      EXPECT_EQ(with.at(name), bytes) << name;
+    }
+    depth_changed += name.rfind("depth/", 0) == 0 && with.at(name) != bytes;
+  }
+  EXPECT_GT(depth_changed, 5);
 }
 
 // Both polarities of the heated mask from the CLI: at the first hole's centre the camera
