@@ -76,6 +76,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Bool("integrate_between_raycasts", r.integrate_between_raycasts)
       .Number("reuse_max_correction_m", r.reuse_max_correction_m)
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg);
+  JsonObject dynamic;
+  dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
   mesh.Number("min_weight", r.mesh.min_weight)
       .Int("min_component_triangles", r.mesh.min_component_triangles)
       .Number("min_component_area_fraction", r.mesh.min_component_area_fraction);
@@ -95,6 +97,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Add("depth", depth.str())
       .Add("icp", icp.str())
       .Add("raycast", raycast.str())
+      .Add("dynamic", dynamic.str())
       .Add("mesh", mesh.str());
   return all.str();
 }
@@ -107,6 +110,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
       .Bool("fused", f.fused)
       .Bool("integrated", f.integrated)
       .Bool("coloured", f.coloured)
+      .Int("dynamic_pixels", f.dynamic_pixels)
+      .Int("carved_points", f.carved_points)
       .Number("valid_depth_fraction", f.valid_depth_fraction);
   if (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered ||
       f.status == FrameStatus::kLost) {
@@ -152,7 +157,11 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .Int("widened", r.widened)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured)
-      .Int("integrated", r.integrated);
+      .Int("integrated", r.integrated)
+      .Int("dynamic_frames", r.dynamic_frames)
+      .Int("dynamic_pixels", static_cast<int64_t>(r.dynamic_pixels))
+      .Int("carved_frames", r.carved_frames)
+      .Int("carved_points", static_cast<int64_t>(r.carved_points));
   const double processed = std::max<size_t>(1, reconstruction.frames().size());
   timings.Number("load_s", r.load_seconds)
       .Number("process_s", r.process_seconds)
@@ -327,6 +336,10 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.integrated += f.integrated;
+    r.dynamic_frames += f.dynamic_pixels > 0;
+    r.dynamic_pixels += f.dynamic_pixels;
+    r.carved_frames += f.carved_points > 0;
+    r.carved_points += f.carved_points;
     r.coloured += f.coloured;
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
@@ -424,6 +437,13 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                               "raycasts: --integrate-between-raycasts false)\n",
                               r.integrated, r.fused);
   }
+  if (r.dynamic_frames > 0 || r.carved_frames > 0) {
+    out += core::StringPrintf("Dynamic    %lld depth pixels of %d frames not integrated (in front of the model: something "
+                              "moved in); %lld model points of %d frames carved (seen through: something left); "
+                              "--dynamic-margin\n",
+                              static_cast<long long>(r.dynamic_pixels), r.dynamic_frames,
+                              static_cast<long long>(r.carved_points), r.carved_frames);
+  }
   if (r.widened > 0) {
     out += core::StringPrintf("Tracking   %d frames aligned only on the widened association gate "
                               "(no velocity yet, or more motion than the gate)\n", r.widened);
@@ -516,6 +536,13 @@ int RunReconstruct(int argc, char** argv) {
                  "integrate the depth of the frames tracked between two raycasts too (false: only of the "
                  "frames after which the model is raycast; the others still get a pose)")
       ->capture_default_str();
+  app.add_option("--dynamic-margin", r.dynamic.margin_m,
+                 "depth this far (m, or dynamic fraction of its depth if more) in front of the model it was "
+                 "tracked against is not integrated: something moved in (0 with --dynamic-fraction 0: off)")
+      ->capture_default_str();
+  app.add_option("--dynamic-fraction", r.dynamic.margin_fraction,
+                 "the same margin as a fraction of the pixel's depth, [0, 1)")
+      ->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();
   app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();
@@ -546,6 +573,14 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--thermal-edge-radius", t.edge_radius_px,
                  "thermal pixels within this many pixels of a silhouette (a neighbour's hit farther or "
                  "nearer than any surface fused could put it, or none) are not fused; 0: off")
+      ->capture_default_str();
+  app.add_option("--thermal-occlusion-margin", t.occlusion_margin_m,
+                 "thermal rays whose model surface lies this far (m, or --thermal-occlusion-fraction of the "
+                 "depth if more) behind what the depth camera saw at the time are not fused: someone or "
+                 "something passing in front (0 with the fraction 0: off)")
+      ->capture_default_str();
+  app.add_option("--thermal-occlusion-fraction", t.occlusion_margin_fraction,
+                 "the same margin as a fraction of the depth seen, [0, 1)")
       ->capture_default_str();
   app.add_option("--thermal-max-views", t.max_views_per_region,
                  "views per surface region kept for the offline estimate, the most confident ones "

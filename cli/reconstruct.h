@@ -47,6 +47,9 @@ struct ThermalCommandResult {
   int frames = 0;  // thermal frames of the scan
   int fused = 0, frozen = 0, no_pose = 0, no_surface = 0, missing = 0, after_end = 0;
   int64_t rays = 0, hits = 0, rays_fused = 0;  // over all frames given to fusion
+  int64_t rays_occluded = 0;  // hits behind something the live depth saw nearer
+  int occluded_frames = 0;    // frames with such rays
+  int live_depth_frames = 0;  // frames given a depth frame for the occlusion test
   size_t regions = 0, observations = 0, memory_bytes = 0;
   size_t observations_dropped = 0;  // by ThermalFusionOptions::max_views_per_region
   int64_t offline_rejected = 0;
@@ -72,6 +75,10 @@ struct ReconstructCommandResult {
   std::string depth_correction;
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int integrated = 0;  // fused frames whose depth went into the volume
+  int dynamic_frames = 0;      // frames with depth pixels masked as in front of the model
+  int64_t dynamic_pixels = 0;  // ... and those pixels
+  int carved_frames = 0;       // frames that saw through model points (carved as free space)
+  int64_t carved_points = 0;   // ... and those points
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
   int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)

@@ -111,6 +111,9 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
     r.rays += f.rays;
     r.hits += f.hits;
     r.rays_fused += f.fused;
+    r.rays_occluded += f.occluded;
+    r.occluded_frames += f.occluded > 0;
+    r.live_depth_frames += f.live_depth;
     if (f.status == ThermalFrameStatus::kFused) {
       r.raycast_ms += f.raycast_ms;
       r.fuse_ms += f.fuse_ms;
@@ -201,6 +204,8 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("capped_mean_max_weight", o.capped_mean_max_weight)
       .Number("min_ray_confidence", o.min_ray_confidence)
       .Int("edge_radius_px", o.edge_radius_px)
+      .Number("occlusion_margin_m", o.occlusion_margin_m)
+      .Number("occlusion_margin_fraction", o.occlusion_margin_fraction)
       .Number("vignetting", o.vignetting)
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
@@ -218,6 +223,9 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Int("rays", r.rays)
       .Int("hits", r.hits)
       .Int("rays_fused", r.rays_fused)
+      .Int("rays_occluded", r.rays_occluded)
+      .Int("occluded_frames", r.occluded_frames)
+      .Int("live_depth_frames", r.live_depth_frames)
       .Number("fraction_fused", r.rays > 0 ? static_cast<double>(r.rays_fused) / r.rays : 0)
       .Int("regions", static_cast<int64_t>(r.regions))
       .Int("observations", static_cast<int64_t>(r.observations))
@@ -279,6 +287,8 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Int("low_confidence", f.low_confidence)
         .Int("no_normal", f.no_normal)
         .Int("depth_edge", f.depth_edge)
+        .Int("occluded", f.occluded)
+        .Bool("live_depth", f.live_depth)
         .Int("no_surface_temperature", f.no_surface_temperature)
         .Number("mean_confidence", f.mean_confidence)
         .Int("regions_updated", f.regions_updated)
@@ -308,6 +318,12 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
     out += core::StringPrintf(" (%zu least confident views dropped)", r.observations_dropped);
   }
   out += "; emissivity: " + r.emissivity + "\n";
+  if (r.occluded_frames > 0) {
+    out += core::StringPrintf(
+        "           %lld rays of %d frames not fused: behind something the depth camera saw nearer at the time "
+        "(a person walking by; --thermal-occlusion-margin)\n",
+        static_cast<long long>(r.rays_occluded), r.occluded_frames);
+  }
   if (r.scene_correction) {
     out += core::StringPrintf(
         "           scene correction: offset measured on %d frames (once per shutter event), offsets %+.2f to %+.2f K, "

@@ -133,6 +133,7 @@ std::string ReconstructionOptions::Check() const {
   if (std::string m = e.icp.Check(); !m.empty()) return "icp." + m;
   if (std::string m = e.raycast.Check(); !m.empty()) return "raycast." + m;
   if (std::string m = e.mesh.Check(); !m.empty()) return "mesh." + m;
+  if (std::string m = e.dynamic.Check(); !m.empty()) return "dynamic." + m;
   return "";
 }
 
@@ -269,25 +270,28 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
-  // A posed frame needs no model view (the next posed one does not track against it).
-  // After a frame tracked normally, the view may wait for raycast_interval fused frames;
+  // A posed frame needs a model view only for the dynamic mask (the next posed one does not
+  // track against it). After a frame tracked normally, the view may wait for raycast_interval fused frames;
   // after any other (the first, a recovery, a retry, held directions) it is cast at once.
   const bool normal = record.status == FrameStatus::kTracked && !record.widened_gate &&
                       !record.from_last_pose && record.held_directions == 0 &&
                       record.correction_m <= options_.reuse_max_correction_m &&
                       record.correction_deg <= options_.reuse_max_correction_deg;
-  const bool raycast =
-      !frame.world_from_depth && (!model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval);
+  // Posed frames keep a model view only for the dynamic mask (what moved in front of it is
+  // not integrated), cast as often as for tracking.
+  const bool raycast = frame.world_from_depth
+                           ? options_.dynamic.enabled() && (!model_ || ++fused_since_raycast_ >= options_.raycast_interval)
+                           : !model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval;
   // Without integrate_between_raycasts a frame that reuses the model view only tracks: its
   // depth would change a volume nobody looks at until the next raycast, whose frame fuses
   // nearly the same surfaces.
   if (options_.integrate_between_raycasts || raycast || frame.world_from_depth) {
     Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   }
-  if (frame.world_from_depth) {
-    model_.reset();
-  } else if (raycast) {
+  if (raycast) {
     UpdateModel(world_from_depth, record);
+  } else if (frame.world_from_depth && !options_.dynamic.enabled()) {
+    model_.reset();
   }
   record.blocks = volume_.NumBlocks();
   frames_.push_back(record);
@@ -429,8 +433,22 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
     colour->world_from_camera = PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
     record.coloured = true;
   }
-  volume_.Integrate(pyramid.raw_depth_m, depth_undistorter_.pinhole(), world_from_depth,
-                    colour ? &*colour : nullptr);
+  cv::Mat depth_m = pyramid.raw_depth_m;
+  if (options_.dynamic.enabled() && model_) {
+    // The view this frame was tracked against: what lies in front of it moved in.
+    const int level = options_.raycast_level;
+    depth_m = depth_m.clone();
+    record.dynamic_pixels =
+        MaskInFrontOfModel(depth_m, depth_undistorter_.pinhole(), world_from_depth, model_->maps[level],
+                           model_->cameras[level], model_->world_from_camera, options_.dynamic, options_.num_threads);
+    // ... and what the model still shows where this frame sees through it has left.
+    const std::vector<Eigen::Vector3f> through =
+        ModelSeenThrough(pyramid.raw_depth_m, depth_undistorter_.pinhole(), world_from_depth, model_->maps[level],
+                         options_.dynamic, options_.num_threads);
+    record.carved_points = static_cast<int>(through.size());
+    if (!through.empty()) volume_.CarveFreeSpace(through, world_from_depth.translation.cast<float>());
+  }
+  volume_.Integrate(depth_m, depth_undistorter_.pinhole(), world_from_depth, colour ? &*colour : nullptr);
   record.integrated = true;
   record.integrate_ms = Ms(start);
 }
@@ -499,7 +517,18 @@ class ThermalFeeder {
  public:
   ThermalFeeder(const core::Scan& scan, ThermalFusion* fusion, ScanReconstruction& out)
       : scan_(scan), fusion_(fusion), out_(out),
-        n_(fusion ? scan.NumFrames(core::Stream::kThermal) : 0) {}
+        n_(fusion ? scan.NumFrames(core::Stream::kThermal) : 0) {
+    const double period_s = scan.MedianPeriod(core::Stream::kDepth);
+    max_live_dt_s_ = std::isfinite(period_s) ? 1.5 * period_s : 0.05;
+  }
+
+  // A fused depth frame (as recorded, distorted) and its pose: the thermal frames fed next
+  // test occlusion against the last two (ThermalFusionOptions).
+  void AddDepth(double timestamp_s, const cv::Mat& depth_m, const core::Rigid3d& world_from_depth) {
+    if (!fusion_) return;
+    if (live_.size() == 2) live_.erase(live_.begin());
+    live_.push_back({timestamp_s, LiveDepth{depth_m, world_from_depth}});
+  }
 
   // Fuses the frames the trajectory now reaches; with `flush`, all remaining ones (those past
   // the trajectory's end are only counted).
@@ -526,7 +555,13 @@ class ThermalFeeder {
       frame.apparent_c = scan_.LoadThermal(i);
       out_.thermal_load_seconds += Ms(start) / 1000;
       start = std::chrono::steady_clock::now();
-      fusion_->AddFrame(reconstruction.volume(), frame, reconstruction.trajectory());
+      // The fused depth frames around it: within a depth period and a half of its time.
+      std::vector<LiveDepth> live;
+      const double t_depth = fusion_->DepthClockTime(t);
+      for (const auto& [t_live, depth] : live_) {
+        if (std::abs(t_live - t_depth) <= max_live_dt_s_) live.push_back(depth);
+      }
+      fusion_->AddFrame(reconstruction.volume(), frame, reconstruction.trajectory(), live);
       out_.thermal_seconds += Ms(start) / 1000;
       ++out_.thermal_frames;
     }
@@ -537,6 +572,8 @@ class ThermalFeeder {
   ThermalFusion* fusion_;
   ScanReconstruction& out_;
   int n_ = 0, next_ = 0;
+  std::vector<std::pair<double, LiveDepth>> live_;  // the last two fused depth frames, oldest first
+  double max_live_dt_s_ = 0.05;
 };
 
 }  // namespace
@@ -605,7 +642,10 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
           "depth frame %d at %.6f s: only %.1f %% of pixels have depth, skipped", i, t,
           100 * record.valid_depth_fraction));
     }
-    if (thermal && record.fused) feeder.Feed(reconstruction, false);
+    if (thermal && record.fused) {
+      feeder.AddDepth(t, frame.depth_m, reconstruction.trajectory().poses().back().world_from_sensor);
+      feeder.Feed(reconstruction, false);
+    }
     if (frame_done) frame_done(i - first + 1, last - first);
   }
   if (thermal) {

@@ -20,6 +20,7 @@
 #include "core/scan.h"
 #include "core/trajectory.h"
 #include "reconstruct/depth_frame.h"
+#include "reconstruct/dynamic_mask.h"
 #include "reconstruct/icp.h"
 #include "reconstruct/marching_cubes.h"
 #include "reconstruct/raycast.h"
@@ -70,6 +71,11 @@ struct ReconstructionOptions {
   // volume: at 30 Hz a surface is seen in dozens of frames, and integration is, with the
   // raycast, the costliest stage (README, Reconstruction: Speed, where both are measured).
   bool integrate_between_raycasts = false;
+  // Depth that moved in front of the model (a person walking by) is not integrated, and
+  // what the model shows where the depth sees through it is carved as free space
+  // (dynamic_mask.h); against the model view the frame was tracked with (posed frames: one
+  // cast as often, for this only). margin_m and margin_fraction 0: off.
+  DynamicMaskOptions dynamic;
   // m, > 0: 10 mm is above 90 % of the corrections of smooth hand-held frames (3 mm median,
   // 6-8 mm at the 90th percentile at 30 Hz and at 10 Hz), below a jerk's (57 mm).
   double reuse_max_correction_m = 0.01;
@@ -136,6 +142,10 @@ struct FrameRecord {
   // is raycast (ReconstructionOptions::integrate_between_raycasts false).
   bool integrated = false;
   bool coloured = false;    // an rgb frame was fused with it
+  // Depth pixels not integrated because they lay in front of the model (dynamic_mask.h).
+  int dynamic_pixels = 0;
+  // Model view points this frame's depth saw through (dynamic_mask.h), carved as free space.
+  int carved_points = 0;
   double valid_depth_fraction = 0;
   IcpStatus icp_status = IcpStatus::kOk;  // of the last attempt (tracked / lost frames)
   int inliers = 0, valid_points = 0;

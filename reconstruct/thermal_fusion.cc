@@ -48,6 +48,12 @@ std::string ThermalFusionOptions::Check() const {
   }
   if (!(vignetting >= 0 && vignetting < 1)) return OptionFail("vignetting", vignetting, "in [0, 1)");
   if (!(edge_radius_px >= 0 && edge_radius_px <= 10)) return OptionFail("edge_radius_px", edge_radius_px, "in [0, 10]");
+  if (!(occlusion_margin_m >= 0) || !std::isfinite(occlusion_margin_m)) {
+    return OptionFail("occlusion_margin_m", occlusion_margin_m, ">= 0 m");
+  }
+  if (!(occlusion_margin_fraction >= 0 && occlusion_margin_fraction < 1)) {
+    return OptionFail("occlusion_margin_fraction", occlusion_margin_fraction, "in [0, 1)");
+  }
   if (max_views_per_region < 0) return OptionFail("max_views_per_region", max_views_per_region, ">= 0");
   if (num_threads < 0) return OptionFail("num_threads", num_threads, ">= 0");
   return "";
@@ -68,7 +74,7 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
                                                        const core::Rigid3d& world_from_thermal,
                                                        const Eigen::Vector3d& linear_velocity_mps,
                                                        const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                                       ThermalFrameRecord& record) {
+                                                       std::span<const LiveDepth> live, ThermalFrameRecord& record) {
   const int width = map.width, height = map.height;
   const int num_threads = std::min(internal::ResolveThreads(options.num_threads), height);
   std::vector<ShadePart>& parts = shade_scratch;
@@ -117,6 +123,79 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
     }
     return false;
   };
+  // The occlusion test: the live depth frames (the fused depth frames around the thermal
+  // frame's time) warped into this thermal view — every depth pixel's point, through the
+  // thermal lens model, the nearest range per thermal pixel — so that what stood on the
+  // thermal camera's own line of sight is found (the depth camera, 5 cm away, sees past an
+  // occluder's side that the thermal camera's ray meets). A hit whose model range lies
+  // behind the live range by more than max(margin, fraction · live range) was occluded; a
+  // ray is then rejected when a pixel within max(edge_radius_px, 1) of it is occluded: the
+  // occluder's edge moves between the depth and thermal exposures (a walker 2 cm in 17 ms)
+  // and the optics and lag spread it by a pixel (the silhouette rule's reasons).
+  const bool occlusion_test =
+      !live.empty() && (options.occlusion_margin_m > 0 || options.occlusion_margin_fraction > 0);
+  std::vector<uint8_t>& occluded_flag = occluded_scratch;
+  if (occlusion_test) {
+    if (depth_rays.empty()) {  // each depth pixel's ray (z = 1), NaN where the lens model has none
+      const core::CameraModel& d = rig.depth;
+      depth_rays.resize(size_t(d.width) * d.height);
+      for (int y = 0; y < d.height; ++y) {
+        for (int x = 0; x < d.width; ++x) {
+          const std::optional<Eigen::Vector3d> ray = d.Unproject(Eigen::Vector2d(x, y));
+          depth_rays[size_t(y) * d.width + x] = ray ? Eigen::Vector3f(ray->cast<float>()) : Eigen::Vector3f::Constant(kNaN);
+        }
+      }
+    }
+    const core::Rigid3d thermal_from_world_pose = world_from_thermal.Inverse();
+    std::vector<std::vector<float>>& buffers = live_range_scratch;
+    buffers.resize(num_threads);
+    for (auto& b : buffers) b.assign(size_t(width) * height, std::numeric_limits<float>::infinity());
+    const core::CameraModel& thermal_camera = *rig.thermal;
+    for (const LiveDepth& d : live) {
+      const core::Rigid3d thermal_from_depth = thermal_from_world_pose * d.world_from_depth;
+      const Eigen::Matrix3f rotation = thermal_from_depth.rotation.toRotationMatrix().cast<float>();
+      const Eigen::Vector3f translation = thermal_from_depth.translation.cast<float>();
+      const int rows = d.depth_m.rows, cols = d.depth_m.cols;
+      internal::RunChunks(num_threads, [&](int chunk) {
+        std::vector<float>& buffer = buffers[chunk];
+        for (int y = chunk * rows / num_threads; y < (chunk + 1) * rows / num_threads; ++y) {
+          const float* row = d.depth_m.ptr<float>(y);
+          for (int x = 0; x < cols; ++x) {
+            const float z = row[x];
+            if (!(z > 0)) continue;
+            const Eigen::Vector3f& ray = depth_rays[size_t(y) * cols + x];
+            if (!IsValid(ray)) continue;
+            const Eigen::Vector3f p = rotation * (z * ray) + translation;
+            if (p.z() <= 1e-3f) continue;
+            const Eigen::Vector2d uv = thermal_camera.Project(p.cast<double>());
+            const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+            if (u < 0 || v < 0 || u >= width || v >= height) continue;
+            float& nearest = buffer[size_t(v) * width + u];
+            nearest = std::min(nearest, p.norm());
+          }
+        }
+      });
+    }
+    const float margin_m = static_cast<float>(options.occlusion_margin_m);
+    const float fraction = static_cast<float>(options.occlusion_margin_fraction);
+    occluded_flag.assign(size_t(width) * height, 0);
+    for (size_t i = 0; i < occluded_flag.size(); ++i) {
+      float live_range = buffers[0][i];
+      for (size_t b = 1; b < buffers.size(); ++b) live_range = std::min(live_range, buffers[b][i]);
+      const float r = range[i];
+      occluded_flag[i] = std::isfinite(r) && std::isfinite(live_range) &&
+                         live_range < r - std::max(margin_m, fraction * live_range);
+    }
+  }
+  const int occlusion_radius = std::max(edge_radius, 1);
+  auto near_occluded = [&](int x, int y) {
+    for (int v = std::max(0, y - occlusion_radius); v <= std::min(height - 1, y + occlusion_radius); ++v) {
+      for (int u = std::max(0, x - occlusion_radius); u <= std::min(width - 1, x + occlusion_radius); ++u) {
+        if (occluded_flag[map.Index(u, v)]) return true;
+      }
+    }
+    return false;
+  };
   internal::RunChunks(num_threads, [&](int chunk) {
     ShadePart& part = parts[chunk];
     for (int y = chunk * height / num_threads; y < (chunk + 1) * height / num_threads; ++y) {
@@ -131,6 +210,10 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
         }
         if (edge_radius > 0 && near_depth_edge(x, y, range[i])) {
           ++part.depth_edge;
+          continue;
+        }
+        if (occlusion_test && near_occluded(x, y)) {
+          ++part.occluded;
           continue;
         }
         const Eigen::Vector3d point = map.points[i].cast<double>();
@@ -193,6 +276,7 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
     record.low_confidence += part.low_confidence;
     record.no_normal += part.no_normal;
     record.depth_edge += part.depth_edge;
+    record.occluded += part.occluded;
     record.no_surface_temperature += part.no_surface;
     confidence_sum += part.confidence_sum;
     fused.insert(fused.end(), part.rays.begin(), part.rays.end());
@@ -279,7 +363,13 @@ bool ThermalFusion::PoseAvailable(double thermal_timestamp_s, const core::Trajec
 }
 
 const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, const ThermalFrameInput& frame,
-                                                  const core::Trajectory& world_from_depth) {
+                                                  const core::Trajectory& world_from_depth,
+                                                  std::span<const LiveDepth> live) {
+  for (const LiveDepth& d : live) {
+    assert(d.depth_m.type() == CV_32FC1 && d.depth_m.cols == impl_->rig.depth.width &&
+           d.depth_m.rows == impl_->rig.depth.height);
+    (void)d;
+  }
   Impl& m = *impl_;
   const core::CameraModel& camera = *m.rig.thermal;
   if (frame.apparent_c.type() != CV_32FC1 || frame.apparent_c.cols != camera.width ||
@@ -363,7 +453,8 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
   const cv::Mat corrected = m.scene_correction.CorrectPixels(image);
   std::vector<Ray>& fused = m.ShadeRays(map, corrected, world_from_thermal, linear_velocity_mps,
-                                       angular_velocity_radps, operating, record);
+                                       angular_velocity_radps, operating, live, record);
+  record.live_depth = !live.empty();
   if (m.scene_correction.enabled()) m.CorrectFrame(fused, record);
   m.camera_in_world = world_from_thermal.translation.cast<float>();
   m.Splat(fused, record);

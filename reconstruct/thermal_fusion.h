@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -58,6 +59,16 @@ struct ThermalFusionOptions {
   // scan: 12 of 14 false spots). 2 px covers both; it is the thermographer's rule that an
   // object must fill a few pixels around the spot measured.
   int edge_radius_px = 2;  // px, [0, 10]; 0: off
+  // Transient occluders: given the depth frames around the thermal frame's time (AddFrame's
+  // `live`), a ray is not fused when, within max(edge_radius_px, 1) pixels of it, a ray's
+  // model surface lies behind what a depth frame saw along the same line of sight, by more
+  // than max(occlusion_margin_m, occlusion_margin_fraction · that depth). The model holds what stayed; a person walking
+  // by (reconstruction leaves them out: dynamic_mask.h) or a hand in front of the lens is in
+  // the thermal image but not in the model, and their 31–34 °C would be laid on the surface
+  // behind them. Margins as DynamicMaskOptions (depth noise, uncalibrated distortion, a
+  // pixel's misregistration at silhouettes). m, >= 0; fraction in [0, 1); both 0: off.
+  double occlusion_margin_m = 0.1;
+  double occlusion_margin_fraction = 0.05;
   // Rays whose confidence is below this are not fused at all: a zero-confidence view can
   // still move the online estimate (Q = b − C_A > 0), and it carries no information. [0, 1).
   double min_ray_confidence = 0.01;
@@ -120,6 +131,8 @@ struct ThermalFrameRecord {
   int low_confidence = 0;        // hits rejected for confidence
   int no_normal = 0;             // hits without a normal (rim of the observed surface)
   int depth_edge = 0;            // hits next to a depth edge (edge_radius_px)
+  int occluded = 0;              // hits behind something the live depth saw nearer
+  bool live_depth = false;       // a depth frame was given for the occlusion test
   int no_surface_temperature = 0;  // emissivity correction impossible (reading colder than
                                    // the reflection alone), core::SurfaceFromApparent
   double mean_confidence = 0;    // over fused rays
@@ -136,6 +149,13 @@ struct ThermalFrameRecord {
   double offset_correction_k = 0;
   double pixel_offset_rms_k = 0;
   double raycast_ms = 0, fuse_ms = 0;
+};
+
+// A depth frame near a thermal frame's time, for the occlusion test
+// (ThermalFusionOptions::occlusion_margin_m).
+struct LiveDepth {
+  cv::Mat depth_m;  // CV_32FC1 metres as the rig's depth camera saw it (lens distortion in), 0 = none
+  core::Rigid3d world_from_depth;  // its fused pose
 };
 
 // One thermal frame as the camera delivered it.
@@ -185,9 +205,11 @@ class ThermalFusion {
   // gap above max_pose_gap_s: kNoPose) composed with depth_from_thermal; its velocity the
   // finite difference of the two poses around it. Throws std::invalid_argument when
   // apparent_c is not CV_32FC1 of the rig's thermal size. Frames may come in any order
-  // (the online rule then follows arrival order).
+  // (the online rule then follows arrival order). `live`: the fused depth frames around the
+  // frame's time, for the occlusion test (empty: no test); asserts their size and type.
   const ThermalFrameRecord& AddFrame(const TsdfVolume& volume, const ThermalFrameInput& frame,
-                                     const core::Trajectory& world_from_depth);
+                                     const core::Trajectory& world_from_depth,
+                                     std::span<const LiveDepth> live = {});
 
   // Computes the offline estimate from the kept observations (no-op without them). Call
   // after the last frame; AddFrame after it invalidates it.

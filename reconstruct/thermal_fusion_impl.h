@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -111,11 +112,11 @@ struct BlockRegions {
 // One thread's share of Impl::ShadeRays.
 struct ShadePart {
   std::vector<Ray> rays;
-  int hits = 0, low_confidence = 0, no_normal = 0, depth_edge = 0, no_surface = 0;
+  int hits = 0, low_confidence = 0, no_normal = 0, depth_edge = 0, occluded = 0, no_surface = 0;
   double confidence_sum = 0;
   void Clear() {
     rays.clear();
-    hits = low_confidence = no_normal = depth_edge = no_surface = 0;
+    hits = low_confidence = no_normal = depth_edge = occluded = no_surface = 0;
     confidence_sum = 0;
   }
 };
@@ -183,6 +184,9 @@ struct ThermalFusion::Impl {
   std::vector<ShadePart> shade_scratch;
   std::vector<Ray> fused_scratch;
   std::vector<float> range_scratch;  // ShadeRays: each pixel's hit distance, NaN without one
+  std::vector<uint8_t> occluded_scratch;  // ShadeRays: hits the live depth saw occluded
+  std::vector<std::vector<float>> live_range_scratch;  // ShadeRays: live depth per thermal pixel, per thread
+  std::vector<Eigen::Vector3f> depth_rays;  // each depth pixel's ray (z = 1), built on first use
   std::vector<std::vector<SplatRef>> splat_scratch;
   cv::Mat previous_image;
   bool finished = false;
@@ -255,7 +259,7 @@ struct ThermalFusion::Impl {
                                     const core::Rigid3d& world_from_thermal,
                                     const Eigen::Vector3d& linear_velocity_mps,
                                     const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                    ThermalFrameRecord& record);
+                                    std::span<const LiveDepth> live, ThermalFrameRecord& record);
   // Scene-based correction of one frame's rays (ThermalFusionOptions::scene_correction):
   // their residuals against the reference regions update the estimates, and the frame's
   // offset is taken off every ray (its surface temperature linearised: δ/ε).

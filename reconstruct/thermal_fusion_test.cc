@@ -629,6 +629,82 @@ TEST(ThermalFusionTest, SceneCorrectionRemovesFrameOffsetJumpAndFixedPattern) {
   EXPECT_LT(rmse[1], 0.06) << rmse[1];
 }
 
+// A ball passing in front of the plane (a person walking by): in the thermal image and in
+// the live depth, not in the model. Given the depth frames around each thermal frame, the
+// rays that saw the ball are not fused onto the plane behind it; without them the plane
+// takes the ball's 45 °C.
+TEST(ThermalFusionTest, WhatTheLiveDepthSawInFrontIsNotFusedOntoTheSurfaceBehind) {
+  const core::Rig rig = ThermalRig(false);
+  const TsdfVolume volume = PlaneVolume();
+  const Views views = Sweep(8);
+  const Eigen::Vector3d ball(0.0, 0.0, 0.6);  // 0.4 m in front of the plane, in every view
+  constexpr double kBallRadiusM = 0.06, kBallC = 45.0;
+  auto ball_distance = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
+    const Eigen::Vector3d d = direction.normalized(), oc = origin - ball;
+    const double b = oc.dot(d), c = oc.squaredNorm() - kBallRadiusM * kBallRadiusM;
+    return b * b - c >= 0 ? -b - std::sqrt(b * b - c) : -1.0;
+  };
+  const PinholeCamera depth_camera = SmallCamera();
+  auto live_depth = [&](const core::Rigid3d& world_from_depth) {
+    cv::Mat depth = RenderPlane(depth_camera, world_from_depth, Eigen::Vector3d(0, 0, 1), kPlaneZ);
+    for (int y = 0; y < depth.rows; ++y) {
+      for (int x = 0; x < depth.cols; ++x) {
+        const Eigen::Vector3d ray((x - depth_camera.cx) / depth_camera.fx, (y - depth_camera.cy) / depth_camera.fy, 1);
+        const double s = ball_distance(world_from_depth.translation, world_from_depth.rotation * ray);
+        if (s > 0) depth.at<float>(y, x) = static_cast<float>(s / ray.norm());
+      }
+    }
+    return depth;
+  };
+  auto run = [&](bool with_live_depth, int* occluded) {
+    ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+    std::mt19937_64 rng(1);
+    *occluded = 0;
+    for (size_t i = 0; i < views.thermal_times_s.size(); ++i) {
+      const double t = views.thermal_times_s[i];
+      const core::Rigid3d world_from_thermal = *views.trajectory.At(t) * rig.depth_from_thermal;
+      cv::Mat image = RenderThermal(rig, world_from_thermal, 0.0, rng);
+      for (int y = 0; y < image.rows; ++y) {
+        for (int x = 0; x < image.cols; ++x) {
+          const Eigen::Vector3d ray = *rig.thermal->Unproject(Eigen::Vector2d(x, y));
+          if (ball_distance(world_from_thermal.translation, world_from_thermal.rotation * ray) > 0) {
+            image.at<float>(y, x) = static_cast<float>(kBallC);
+          }
+        }
+      }
+      // The depth frames before and after (the sweep's poses every 1/30 s).
+      std::vector<LiveDepth> live;
+      if (with_live_depth) {
+        for (const double td : {i / 30.0, (i + 1) / 30.0}) {
+          const core::Rigid3d pose = *views.trajectory.At(td);
+          live.push_back(LiveDepth{live_depth(pose), pose});
+        }
+      }
+      *occluded += fusion.AddFrame(volume, {static_cast<int>(i), t, image}, views.trajectory, live).occluded;
+    }
+    fusion.Finish();
+    // The plane behind the ball: its largest error over the points every view saw.
+    const std::vector<Eigen::Vector3f> points = PlanePoints();
+    const PointTemperatures temperatures = fusion.Sample(points, ThermalMethod::kMean);
+    double max_error = 0;
+    for (size_t k = 0; k < points.size(); ++k) {
+      if (!std::isfinite(temperatures.surface_c[k])) continue;
+      max_error = std::max(max_error, std::abs(static_cast<double>(temperatures.surface_c[k]) - TrueSurfaceC(points[k].cast<double>())));
+    }
+    return max_error;
+  };
+  int occluded_with = 0, occluded_without = 0;
+  const double with = run(true, &occluded_with), without = run(false, &occluded_without);
+  // Measured 0.10 K with, 3.1 K without: the ball's 45 °C averaged into the plane's ~30 °C.
+  // With the test the plane behind the ball is as good as elsewhere, less the views the ball
+  // took: its points hold fewer rays, so the voxel-position error of the plain plane
+  // (RecoversAnalyticSurfaceTemperature…: 0.06 K) can reach twice that.
+  EXPECT_GT(without, 2.0);
+  EXPECT_LT(with, 0.15);
+  EXPECT_GT(occluded_with, 0);
+  EXPECT_EQ(occluded_without, 0);
+}
+
 TEST(ThermalFusionTest, CheckNamesTheField) {
   ThermalFusionOptions o;
   o.recency_bias = 1.5;
@@ -645,6 +721,12 @@ TEST(ThermalFusionTest, CheckNamesTheField) {
   o = ThermalFusionOptions();
   o.scene_correction.pixel_rate = 2;
   EXPECT_EQ(o.Check().rfind("scene_correction.pixel_rate", 0), 0u) << o.Check();
+  o = ThermalFusionOptions();
+  o.occlusion_margin_m = -0.1;
+  EXPECT_NE(o.Check().find("occlusion_margin_m"), std::string::npos);
+  o = ThermalFusionOptions();
+  o.occlusion_margin_fraction = 1;
+  EXPECT_NE(o.Check().find("occlusion_margin_fraction"), std::string::npos);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <mutex>
 
+#include <absl/container/flat_hash_set.h>
+
 #include "reconstruct/option_check.h"
 #include "reconstruct/tsdf_volume_impl.h"
 
@@ -48,6 +50,40 @@ TsdfVolume::TsdfVolume(TsdfVolume&&) noexcept = default;
 TsdfVolume& TsdfVolume::operator=(TsdfVolume&&) noexcept = default;
 
 float TsdfVolume::voxel_size_m() const { return static_cast<float>(options_.voxel_size_m); }
+
+int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in_world,
+                                   const Eigen::Vector3f& camera_in_world) {
+  const float voxel_m = voxel_size_m(), inv_voxel_m = 1.0f / voxel_m;
+  const float truncation_m = static_cast<float>(options_.truncation_m);
+  const float max_weight = static_cast<float>(options_.max_weight);
+  const int steps = static_cast<int>(std::ceil(truncation_m / (0.5f * voxel_m)));
+  // Each voxel once per call: rays of neighbouring points cross the same voxels.
+  absl::flat_hash_set<uint64_t> done;
+  int64_t updated = 0;
+  for (const Eigen::Vector3f& point : points_in_world) {
+    const Eigen::Vector3f ray = point - camera_in_world;
+    const float length = ray.norm();
+    if (!(length > 0)) continue;
+    const Eigen::Vector3f direction = ray / length;
+    // Half-voxel steps over [−truncation, +truncation] around the point, nearest voxel.
+    for (int k = -steps; k <= steps; ++k) {
+      const Eigen::Vector3f p = point + (static_cast<float>(k) * 0.5f * voxel_m) * direction;
+      const int ix = FloorToInt(p.x() * inv_voxel_m + 0.5f), iy = FloorToInt(p.y() * inv_voxel_m + 0.5f),
+                iz = FloorToInt(p.z() * inv_voxel_m + 0.5f);
+      if (!internal::KeyInRange(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift)) continue;
+      if (!done.insert(internal::PackKey(ix, iy, iz)).second) continue;
+      VoxelBlock* block = impl_->Find(internal::PackKey(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift));
+      if (block == nullptr) continue;
+      constexpr int m = kBlockSide - 1;
+      Voxel& v = block->voxels[(ix & m) + kBlockSide * ((iy & m) + kBlockSide * (iz & m))];
+      if (!(v.weight > 0)) continue;
+      v.sdf = (v.sdf * v.weight + 1.0f) / (v.weight + 1.0f);
+      v.weight = std::min(v.weight + 1.0f, max_weight);
+      ++updated;
+    }
+  }
+  return updated;
+}
 
 const VoxelBlock* TsdfVolume::FindBlock(const BlockKey& key) const {
   if (!KeyInRange(key.x(), key.y(), key.z())) return nullptr;

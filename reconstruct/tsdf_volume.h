@@ -124,6 +124,15 @@ class TsdfVolume {
                            const core::Rigid3d& world_from_camera,
                            const ColourView* colour = nullptr);
 
+  // Free space seen where the model had a surface (dynamic_mask.h: ModelSeenThrough): for
+  // each point, the observed voxels of existing blocks within truncation_m of it along the
+  // ray from camera_in_world take one observation of empty space (sdf +1, weight +1, capped
+  // at max_weight), so that a surface fused from something that has since left (a person
+  // walking by) fades after as many views through it as it had (each voxel once per call).
+  // Unobserved voxels and missing blocks are left alone. World frame, metres. Returns the
+  // voxels updated.
+  int64_t CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in_world, const Eigen::Vector3f& camera_in_world);
+
   // The block with this key, or nullptr.
   const VoxelBlock* FindBlock(const BlockKey& key) const;
   // The block with this key, created (all voxels unobserved) if missing.

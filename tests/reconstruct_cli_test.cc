@@ -73,7 +73,8 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
                           "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
                           "\"interval\": 2", "\"integrate_between_raycasts\": false", "\"integrated\": true",
-                          "\"integrated\": false"}) {
+                          "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
+                          "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
@@ -269,6 +270,14 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                 " --thermal-scene-correction sometimes");
   EXPECT_EQ(scene.exit_code, 2) << scene.output;
   EXPECT_NE(scene.output.find("--thermal-scene-correction"), std::string::npos) << scene.output;
+  const Result dynamic = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                  " --dynamic-margin -1");
+  EXPECT_EQ(dynamic.exit_code, 2) << dynamic.output;
+  EXPECT_NE(dynamic.output.find("dynamic.margin_m"), std::string::npos) << dynamic.output;
+  const Result occlusion = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                    " --thermal-occlusion-fraction 1");
+  EXPECT_EQ(occlusion.exit_code, 2) << occlusion.output;
+  EXPECT_NE(occlusion.output.find("occlusion_margin_fraction"), std::string::npos) << occlusion.output;
   EXPECT_EQ(Heatwave("reconstruct " + SmoothScan().string()).exit_code, 2);  // no --out
 }
 

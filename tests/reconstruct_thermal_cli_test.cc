@@ -109,7 +109,9 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
   EXPECT_GT(observed, static_cast<int>(t.size()) / 2);
   const std::string json = Read(out / "reconstruct.json");
   for (const char* key : {"\"thermal\"", "\"recency_bias\"", "\"fraction_fused\"", "\"truth_evaluation\"",
-                          "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\""}) {
+                          "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\"",
+                          "\"occlusion_margin_m\": 0.1", "\"rays_occluded\"", "\"live_depth_frames\"", "\"occluded\"",
+                          "\"live_depth\": true"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
 }

@@ -1,0 +1,140 @@
+#include "reconstruct/dynamic_mask.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "reconstruct/option_check.h"
+#include "reconstruct/row_bands.h"
+
+namespace hw::reconstruct {
+
+std::string DynamicMaskOptions::Check() const {
+  if (!(margin_m >= 0) || !std::isfinite(margin_m)) return internal::Fail("margin_m", margin_m, ">= 0 m");
+  if (!(margin_fraction >= 0 && margin_fraction < 1)) {
+    return internal::Fail("margin_fraction", margin_fraction, "in [0, 1)");
+  }
+  return "";
+}
+
+int MaskInFrontOfModel(cv::Mat& depth_m, const PinholeCamera& camera, const core::Rigid3d& world_from_depth,
+                       const PointMap& model, const PinholeCamera& model_camera,
+                       const core::Rigid3d& world_from_model, const DynamicMaskOptions& options,
+                       int num_threads) {
+  assert(options.Check().empty());
+  assert(depth_m.type() == CV_32FC1 && depth_m.cols == camera.width && depth_m.rows == camera.height);
+  assert(model.width == model_camera.width && model.height == model_camera.height);
+  if (!options.enabled() || model.points.empty()) return 0;
+  // Depth camera → model camera, and world → model camera for the model's points.
+  const core::Rigid3d model_from_world = world_from_model.Inverse();
+  const core::Rigid3d model_from_depth = model_from_world * world_from_depth;
+  const Eigen::Matrix3f rotation = model_from_depth.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f translation = model_from_depth.translation.cast<float>();
+  const Eigen::Matrix3f model_rotation = model_from_world.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f model_translation = model_from_world.translation.cast<float>();
+  const float margin_m = static_cast<float>(options.margin_m);
+  const float margin_fraction = static_cast<float>(options.margin_fraction);
+  // The model's depth along its own camera axis per pixel, NaN without a surface.
+  std::vector<float> model_z(model.points.size());
+  for (size_t i = 0; i < model.points.size(); ++i) {
+    model_z[i] = IsValid(model.points[i]) ? (model_rotation * model.points[i] + model_translation).z()
+                                          : std::numeric_limits<float>::quiet_NaN();
+  }
+  std::atomic<int> masked{0};
+  ForEachBand(depth_m.rows, num_threads, [&](int begin, int end) {
+    int count = 0;
+    for (int y = begin; y < end; ++y) {
+      float* row = depth_m.ptr<float>(y);
+      for (int x = 0; x < depth_m.cols; ++x) {
+        const float z = row[x];
+        if (!(z > 0)) continue;
+        const Eigen::Vector3f p = rotation * camera.Unproject(static_cast<float>(x), static_cast<float>(y), z) + translation;
+        if (p.z() <= 1e-3f) continue;
+        const Eigen::Vector2f uv = model_camera.Project(p);
+        const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+        if (u < 0 || v < 0 || u >= model.width || v >= model.height) continue;
+        // The nearest model surface over the 3×3 model pixels around: a point on an object's
+        // rim that projects a pixel off onto the background behind it is not in front of the
+        // object, and masking rims would erode every silhouette a little more each frame (the
+        // rim never integrated, the model's silhouette shrinking). A neighbour without a
+        // surface (unseen, or the image border) keeps the point: nothing says it moved in.
+        float nearest_z = std::numeric_limits<float>::infinity();
+        bool all_seen = true;
+        for (int dv = -1; dv <= 1 && all_seen; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int uu = u + du, vv = v + dv;
+            if (uu < 0 || vv < 0 || uu >= model.width || vv >= model.height) {
+              all_seen = false;
+              break;
+            }
+            const float mz = model_z[model.Index(uu, vv)];
+            if (!(mz > 0)) {
+              all_seen = false;
+              break;
+            }
+            nearest_z = std::min(nearest_z, mz);
+          }
+        }
+        // Both along the model camera's axis: the point lies on (nearly) the ray of (u, v).
+        if (all_seen && p.z() < nearest_z - std::max(margin_m, margin_fraction * z)) {
+          row[x] = 0;
+          ++count;
+        }
+      }
+    }
+    masked += count;
+  });
+  return masked.load();
+}
+
+std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const PinholeCamera& camera,
+                                              const core::Rigid3d& world_from_depth, const PointMap& model,
+                                              const DynamicMaskOptions& options, int num_threads) {
+  assert(options.Check().empty());
+  assert(depth_m.type() == CV_32FC1 && depth_m.cols == camera.width && depth_m.rows == camera.height);
+  std::vector<Eigen::Vector3f> seen_through;
+  if (!options.enabled() || model.points.empty()) return seen_through;
+  const core::Rigid3d depth_from_world = world_from_depth.Inverse();
+  const Eigen::Matrix3f rotation = depth_from_world.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f translation = depth_from_world.translation.cast<float>();
+  const float margin_m = static_cast<float>(options.margin_m);
+  const float margin_fraction = static_cast<float>(options.margin_fraction);
+  std::vector<std::vector<Eigen::Vector3f>> parts(std::max(1, ResolveThreads(num_threads)));
+  std::atomic<int> next_part{0};
+  ForEachBand(model.height, num_threads, [&](int begin, int end) {
+    std::vector<Eigen::Vector3f>& part = parts[next_part++];
+    for (int v = begin; v < end; ++v) {
+      for (int u = 0; u < model.width; ++u) {
+        const Eigen::Vector3f& point = model.points[model.Index(u, v)];
+        if (!IsValid(point)) continue;
+        const Eigen::Vector3f p = rotation * point + translation;
+        if (p.z() <= 1e-3f) continue;
+        const Eigen::Vector2f xy = camera.Project(p);
+        const int x = static_cast<int>(std::lround(xy.x())), y = static_cast<int>(std::lround(xy.y()));
+        if (x < 1 || y < 1 || x >= camera.width - 1 || y >= camera.height - 1) continue;
+        bool through = true;
+        for (int dy = -1; dy <= 1 && through; ++dy) {
+          const float* row = depth_m.ptr<float>(y + dy);
+          for (int dx = -1; dx <= 1; ++dx) {
+            const float z = row[x + dx];
+            if (!(z > 0) || !(z > p.z() + std::max(margin_m, margin_fraction * z))) {
+              through = false;
+              break;
+            }
+          }
+        }
+        if (through) part.push_back(point);
+      }
+    }
+  });
+  for (const auto& part : parts) seen_through.insert(seen_through.end(), part.begin(), part.end());
+  return seen_through;
+}
+
+}  // namespace hw::reconstruct

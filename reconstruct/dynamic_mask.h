@@ -1,0 +1,64 @@
+#pragma once
+
+// Depth that moved in front of the model: people walking by, a hand, a door swinging. After a
+// frame is tracked, a depth pixel whose point lies nearer than the model's surface along the
+// model view's ray (by more than a margin) stands in space the model saw empty: the surface
+// behind it was seen through that space by the frames fused before. A sparse TSDF keeps no
+// free space away from surfaces, so integrating such a point would start a new surface at
+// once (its blocks are fresh), and the next frames would track against the person instead of
+// the room (measured: a 31 °C passer crossing a 4 s `equipment` scan dragged the tracked
+// pose 2.6 m along with them, every frame reported tracked). Masked pixels are not
+// integrated; surfaces nobody saw before (no model surface behind) are integrated as usual.
+//
+// What it does not do: remove a person already fused (they entered over unseen space, or
+// stood still in the first frames); and a static object first seen in front of surface seen
+// before, but never itself, stays masked while the surface behind it is in the model view
+// (an object that was in view when the surface behind it was is in the model already).
+
+#include "core/transform.h"
+#include "reconstruct/camera_maps.h"
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+namespace hw::reconstruct {
+
+struct DynamicMaskOptions {
+  // A pixel is masked when its depth along the model view's ray is short of the model's by
+  // more than max(margin_m, margin_fraction · depth): above the depth noise, a structured-
+  // light sensor's uncalibrated distortion (2–6 cm at 2–3.5 m on the fixtures, 1–3 % of range
+  // on real units) and the model's silhouettes a pixel off. m, >= 0; 0 with fraction 0: off.
+  double margin_m = 0.1;
+  double margin_fraction = 0.05;  // of the pixel's depth, [0, 1)
+
+  bool enabled() const { return margin_m > 0 || margin_fraction > 0; }
+  std::string Check() const;  // names the field, value and constraint
+};
+
+// Sets to 0 (no measurement) the pixels of depth_m (CV_32FC1 metres, camera `camera` at
+// world_from_depth) that lie in front of `model` (a raycast, world-frame points, seen by
+// model_camera at world_from_model) as above — in front of the nearest model surface of the
+// 3×3 model pixels around the point's projection, so that a silhouette's rim a pixel off is
+// not taken for a person — and returns how many. Pixels whose point falls outside the model
+// view (or on its border), behind its camera, or next to a model pixel without a surface are
+// kept.
+// num_threads: row bands (0: hardware concurrency). Asserts sizes and types.
+int MaskInFrontOfModel(cv::Mat& depth_m, const PinholeCamera& camera, const core::Rigid3d& world_from_depth,
+                       const PointMap& model, const PinholeCamera& model_camera,
+                       const core::Rigid3d& world_from_model, const DynamicMaskOptions& options,
+                       int num_threads = 0);
+
+// The points of `model` (a raycast seen from world_from_model; world frame) that the depth
+// frame saw through: projected into depth_m (camera at world_from_depth), every pixel within
+// one of the projection measured a surface farther than the point by more than
+// max(margin_m, margin_fraction · that depth). Something fused there has left (the model view
+// still shows a person who walked on): TsdfVolume::CarveFreeSpace fades it. Points near a
+// silhouette of the depth frame (a neighbour nearer, or without a measurement) are not
+// returned, so that rims of thin objects a pixel off are not carved. num_threads as above.
+std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const PinholeCamera& camera,
+                                              const core::Rigid3d& world_from_depth, const PointMap& model,
+                                              const DynamicMaskOptions& options, int num_threads = 0);
+
+}  // namespace hw::reconstruct
