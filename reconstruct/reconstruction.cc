@@ -252,8 +252,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     world_from_depth = initial_pose_.value_or(core::Rigid3d::Identity());
     record.status = FrameStatus::kInitialised;
   } else {
-    // After posed frames the model view is stale: raycast it at the last pose first.
-    if (!model_) UpdateModel(trajectory_.poses().back().world_from_sensor, record);
+    // After posed frames the model view is stale (and without colour): raycast it at the
+    // last pose first.
+    if (!model_ || !model_for_tracking_) UpdateModel(trajectory_.poses().back().world_from_sensor, record);
     start = std::chrono::steady_clock::now();
     const bool was_lost = lost_;
     const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
@@ -270,15 +271,14 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
-  // A posed frame needs a model view only for the dynamic mask (the next posed one does not
-  // track against it). After a frame tracked normally, the view may wait for raycast_interval fused frames;
+  // After a frame tracked normally, the view may wait for raycast_interval fused frames;
   // after any other (the first, a recovery, a retry, held directions) it is cast at once.
   const bool normal = record.status == FrameStatus::kTracked && !record.widened_gate &&
                       !record.from_last_pose && record.held_directions == 0 &&
                       record.correction_m <= options_.reuse_max_correction_m &&
                       record.correction_deg <= options_.reuse_max_correction_deg;
-  // Posed frames keep a model view only for the dynamic mask (what moved in front of it is
-  // not integrated), cast as often as for tracking.
+  // Posed frames track against nothing: they keep a model view only for the dynamic mask
+  // (what moved in front of it is not integrated), cast as often as for tracking.
   const bool raycast = frame.world_from_depth
                            ? options_.dynamic.enabled() && (!model_ || ++fused_since_raycast_ >= options_.raycast_interval)
                            : !model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval;
@@ -289,7 +289,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   }
   if (raycast) {
-    UpdateModel(world_from_depth, record);
+    UpdateModel(world_from_depth, record, !frame.world_from_depth);
   } else if (frame.world_from_depth && !options_.dynamic.enabled()) {
     model_.reset();
   }
@@ -453,13 +453,13 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
   record.integrate_ms = Ms(start);
 }
 
-void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record) {
+void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking) {
   const auto start = std::chrono::steady_clock::now();
   PinholeCamera camera = depth_undistorter_.pinhole();
   for (int l = 0; l < options_.raycast_level; ++l) camera = camera.Half();
   RaycastOptions raycast = options_.raycast;
   // The photometric term compares the live colour with the model's.
-  raycast.with_colour = options_.icp.photometric_weight > 0 && options_.integrate_colour && rig_.rgb;
+  raycast.with_colour = for_tracking && options_.icp.photometric_weight > 0 && options_.integrate_colour && rig_.rgb;
   PointMap level = Raycast(volume_, camera, world_from_depth, raycast);
   const int num_levels = static_cast<int>(options_.icp.iterations.size());
   model_ = BuildModelPyramid(std::move(level), camera, world_from_depth,
@@ -481,6 +481,7 @@ void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRec
     model_ = std::move(padded);
   }
   fused_since_raycast_ = 0;
+  model_for_tracking_ = for_tracking;
   record.raycast_ms = Ms(start);
 }
 

@@ -199,7 +199,9 @@ class Reconstruction {
              core::Rigid3d& world_from_depth);
   void Integrate(const DepthPyramid& pyramid, const FrameInput& frame, const cv::Mat& rgb_pinhole,
                  const core::Rigid3d& world_from_depth, FrameRecord& record);
-  void UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record);
+  // Raycasts the model view at world_from_depth; with colour only `for_tracking` (the
+  // photometric term; a posed frame's view serves the dynamic mask alone).
+  void UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking = true);
   // world_from_depth at time t from the two last fused poses (interpolated between them, or
   // extrapolated at constant velocity beyond the last).
   core::Rigid3d PoseAt(double timestamp_s) const;
@@ -217,6 +219,7 @@ class Reconstruction {
   std::optional<core::Rigid3d> initial_pose_;
   std::optional<ModelPyramid> model_;  // raycast at a recent fused pose
   int fused_since_raycast_ = 0;        // frames fused since model_ was raycast
+  bool model_for_tracking_ = false;    // model_ was cast for tracking (with colour), not for a posed frame
   bool lost_ = false;
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
   std::vector<double> recent_conditions_;   // likewise

@@ -113,6 +113,31 @@ TEST(Reconstruction, FrameByFrameEqualsWholeScan) {
   EXPECT_EQ(live.volume().NumBlocks(), whole.volume().NumBlocks());
 }
 
+// Frames with a known pose, then tracked ones (a motion-capture stretch, then none): the
+// posed frames keep a model view for the dynamic mask only, cast without colour; the first
+// tracked frame casts its own view, with colour for the photometric term, and tracks.
+TEST(Reconstruction, TrackedFramesAfterPosedOnesTrackAgainstAFreshView) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  Reconstruction reconstruction(scan.rig(), TestOptions());
+  int posed_raycasts = 0;
+  for (int i = 0; i < scan.NumFrames(Stream::kDepth); ++i) {
+    if (!scan.FrameExists(Stream::kDepth, i)) continue;
+    FrameInput frame = LoadScanFrame(scan, i, true);
+    if (i < 10) frame.world_from_depth = scan.groundtruth()->At(frame.timestamp_s);
+    const FrameRecord& record = reconstruction.AddFrame(frame);
+    if (i < 10) {
+      EXPECT_EQ(record.status, FrameStatus::kPosed);
+      posed_raycasts += record.raycast_ms > 0;
+    } else {
+      EXPECT_EQ(record.status, FrameStatus::kTracked) << "frame " << i;
+    }
+  }
+  EXPECT_GE(posed_raycasts, 4);  // every second posed frame (raycast_interval 2)
+  // As SmoothScanTracksEveryFrameWithinMillimetres: tracked from a posed start, within 1 cm.
+  const TrajectoryEval eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
+  EXPECT_LT(eval.ate_m.rmse, 0.010);
+}
+
 // The rig's depth_correction is applied to every incoming frame before anything else: a
 // rig with one, given raw frames, builds exactly what a rig without one builds from frames
 // corrected beforehand (poses and model, bit for bit).
