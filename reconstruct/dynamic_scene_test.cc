@@ -101,7 +101,7 @@ TEST(DynamicScene, APasserByIsNeitherFusedNorPaintedOnTheSurfacesBehind) {
                 static_cast<long long>(r.carved), static_cast<long long>(r.occluded_rays));
   }
   // Measured (clean / passer / passer without the handling): off the truth surface 0 / 2367 /
-  // 21957 vertices of 34948 / 37386 / 56976; offline RMSE 1.102 / 1.113 / 1.215 K (the
+  // 21957 vertices of 34948 / 37386 / 56976; offline RMSE 1.104 / 1.114 / 1.215 K (the
   // camera's ±1–2 K calibration error included). Without the dynamic handling the person's
   // swept body is 39 % of the model and the temperature on the real surfaces 0.11 K worse;
   // with it, 89 % of that body is gone and the temperature within 0.02 K of the clean scan's.
