@@ -75,7 +75,9 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Int("interval", r.raycast_interval)
       .Bool("integrate_between_raycasts", r.integrate_between_raycasts)
       .Number("reuse_max_correction_m", r.reuse_max_correction_m)
-      .Number("reuse_max_correction_deg", r.reuse_max_correction_deg);
+      .Number("reuse_max_correction_deg", r.reuse_max_correction_deg)
+      .Number("reuse_max_motion_m", r.reuse_max_motion_m)
+      .Number("reuse_max_motion_deg", r.reuse_max_motion_deg);
   JsonObject dynamic;
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
   mesh.Number("min_weight", r.mesh.min_weight)
@@ -531,6 +533,13 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--raycast-interval", r.raycast_interval,
                  "fused frames between model raycasts for tracking (1: after every frame)")
+      ->capture_default_str();
+  app.add_option("--reuse-max-motion", r.reuse_max_motion_m,
+                 "raycast the model view again before --raycast-interval when the next frame would be this far "
+                 "from where the view was cast, m")
+      ->capture_default_str();
+  app.add_option("--reuse-max-motion-deg", r.reuse_max_motion_deg,
+                 "the same limit on the rotation, degrees")
       ->capture_default_str();
   app.add_option("--integrate-between-raycasts", r.integrate_between_raycasts,
                  "integrate the depth of the frames tracked between two raycasts too (false: only of the "

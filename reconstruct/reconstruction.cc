@@ -127,6 +127,12 @@ std::string ReconstructionOptions::Check() const {
   if (!(reuse_max_correction_deg > 0) || !std::isfinite(reuse_max_correction_deg)) {
     return Fail("reuse_max_correction_deg", reuse_max_correction_deg, "> 0 and finite");
   }
+  if (!(reuse_max_motion_m > 0) || !std::isfinite(reuse_max_motion_m)) {
+    return Fail("reuse_max_motion_m", reuse_max_motion_m, "> 0 and finite");
+  }
+  if (!(reuse_max_motion_deg > 0) || !std::isfinite(reuse_max_motion_deg)) {
+    return Fail("reuse_max_motion_deg", reuse_max_motion_deg, "> 0 and finite");
+  }
   const ReconstructionOptions e = Effective(*this);
   if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
   if (std::string m = e.depth.Check(); !m.empty()) return "depth." + m;
@@ -279,9 +285,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                       record.correction_deg <= options_.reuse_max_correction_deg;
   // Posed frames track against nothing: they keep a model view only for the dynamic mask
   // (what moved in front of it is not integrated), cast as often as for tracking.
-  const bool raycast = frame.world_from_depth
-                           ? options_.dynamic.enabled() && (!model_ || ++fused_since_raycast_ >= options_.raycast_interval)
-                           : !model_ || !normal || ++fused_since_raycast_ >= options_.raycast_interval;
+  const bool due = model_ && (++fused_since_raycast_ >= options_.raycast_interval || ViewTooFar(world_from_depth));
+  const bool raycast = frame.world_from_depth ? options_.dynamic.enabled() && (!model_ || due)
+                                              : !model_ || !normal || due;
   // Without integrate_between_raycasts a frame that reuses the model view only tracks: its
   // depth would change a volume nobody looks at until the next raycast, whose frame fuses
   // nearly the same surfaces.
@@ -417,6 +423,21 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     }
   }
   return ok;
+}
+
+bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {
+  assert(model_.has_value());
+  // The next frame's pose at constant velocity: this one's motion since the last fused
+  // frame, once more (no previous frame: no motion).
+  const auto& poses = trajectory_.poses();
+  core::Rigid3d next = world_from_depth;
+  if (poses.size() >= 2) {
+    const core::Rigid3d& previous = poses[poses.size() - 2].world_from_sensor;
+    next = world_from_depth * (previous.Inverse() * world_from_depth);
+  }
+  const core::PoseError moved = core::ComparePoses(model_->world_from_camera, next);
+  return moved.translation_m > options_.reuse_max_motion_m ||
+         moved.rotation_rad * kRadToDeg > options_.reuse_max_motion_deg;
 }
 
 void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& frame,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -37,6 +38,7 @@ ReconstructionOptions TestOptions() {
 struct Outcome {
   TrajectoryEval eval;
   std::vector<FrameRecord> frames;
+  std::vector<core::TimedPose> poses;  // one per fused frame, in order
   TriangleMesh mesh;
 };
 
@@ -49,6 +51,7 @@ Outcome ReconstructAndEvaluate(const core::Scan& scan, const ReconstructionOptio
   Outcome run;
   run.eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
   run.frames = reconstruction.frames();
+  run.poses = reconstruction.trajectory().poses();
   run.mesh = reconstruction.ExtractMesh();
   return run;
 }
@@ -132,7 +135,10 @@ TEST(Reconstruction, TrackedFramesAfterPosedOnesTrackAgainstAFreshView) {
       EXPECT_EQ(record.status, FrameStatus::kTracked) << "frame " << i;
     }
   }
-  EXPECT_GE(posed_raycasts, 4);  // every second posed frame (raycast_interval 2)
+  // Cast as for tracking: the first, then whenever the camera moved beyond the reuse limits
+  // (at least every raycast_interval-th) — not every frame on this slow sweep.
+  EXPECT_GE(posed_raycasts, 2);
+  EXPECT_LT(posed_raycasts, 10);
   // As SmoothScanTracksEveryFrameWithinMillimetres: tracked from a posed start, within 1 cm.
   const TrajectoryEval eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
   EXPECT_LT(eval.ate_m.rmse, 0.010);
@@ -262,7 +268,10 @@ TEST(Reconstruction, JerkyScanTracksOrReportsLostFramesAndRecovers) {
   // frame, 211 mm after every second one, the default: the burst's first frame accepted
   // 93 mm off on a fresh view. Over six more seeds of this path the worst pose is as often
   // better as worse with either interval, mean 165 vs 160 mm; four of them drift silently,
-  // README "Reconstruction", Jerky motion). The bounds hold this seed where it is.
+  // README "Reconstruction", Jerky motion). The bounds hold this seed where it is: with the
+  // reuse motion limits (the default since stop 38) it is one of the seeds that came out
+  // worse, 90th percentile 66 mm instead of 26, worst 153 mm instead of 88, while over
+  // thirteen seeds the mean ATE is unchanged (114.0 vs 113.8 mm, better on five).
   std::vector<double> errors_m;
   for (const core::TimedPose& p : reconstruction.trajectory().poses()) {
     const auto truth = scan.groundtruth()->At(p.timestamp_s);
@@ -271,7 +280,7 @@ TEST(Reconstruction, JerkyScanTracksOrReportsLostFramesAndRecovers) {
   }
   std::sort(errors_m.begin(), errors_m.end());
   EXPECT_LT(errors_m[errors_m.size() / 2], 0.010);
-  EXPECT_LT(errors_m[errors_m.size() * 9 / 10], 0.06);
+  EXPECT_LT(errors_m[errors_m.size() * 9 / 10], 0.08);
   EXPECT_LT(errors_m.back(), 0.25);
 }
 
@@ -358,6 +367,8 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   ReconstructionOptions every = TestOptions(), third = TestOptions();
   every.raycast_interval = 1;
   third.raycast_interval = 3;
+  third.reuse_max_motion_m = 1e3;  // the interval alone (the motion rule: the test below)
+  third.reuse_max_motion_deg = 180;
   const Outcome reference = ReconstructAndEvaluate(smooth, every);
   const Outcome run = ReconstructAndEvaluate(smooth, third);
   int cast = 0, since = 0;
@@ -407,6 +418,57 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   EXPECT_GT(recovered, 0);
 }
 
+// reuse_max_motion_m / _deg: a frame tracked normally casts the model view again before
+// raycast_interval when the next frame, predicted at constant velocity, would be beyond the
+// limits from the pose the view was cast at; every decision is recomputed here from the
+// trajectory. Tracking stays as accurate as casting after every frame.
+TEST(Reconstruction, ModelViewIsCastAgainWhenTheCameraMovedFarFromIt) {
+  const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  ReconstructionOptions every = TestOptions(), by_motion = TestOptions(), by_count = TestOptions();
+  every.raycast_interval = 1;
+  by_motion.raycast_interval = by_count.raycast_interval = 8;
+  // Below this scan's motion over a few frames (1 s, 160×120: 3-10 mm and 0.2-0.6° per
+  // frame), so that the rule decides most casts.
+  by_motion.reuse_max_motion_m = 0.015;
+  by_motion.reuse_max_motion_deg = 1.0;
+  by_count.reuse_max_motion_m = 1e3;
+  by_count.reuse_max_motion_deg = 180;
+  const Outcome reference = ReconstructAndEvaluate(smooth, every);
+  const Outcome run = ReconstructAndEvaluate(smooth, by_motion);
+  const Outcome counted = ReconstructAndEvaluate(smooth, by_count);
+  ASSERT_EQ(run.poses.size(), run.frames.size());
+  int cast = 0, by_rule = 0, since = 0;
+  core::Rigid3d view;  // the pose the current model view was cast at
+  for (size_t i = 0; i < run.frames.size(); ++i) {
+    const FrameRecord& f = run.frames[i];
+    ASSERT_TRUE(f.fused) << "frame " << f.index;
+    const bool normal = f.status == FrameStatus::kTracked && !f.widened_gate && !f.from_last_pose &&
+                        f.held_directions == 0 && f.correction_m <= by_motion.reuse_max_correction_m &&
+                        f.correction_deg <= by_motion.reuse_max_correction_deg;
+    const core::Rigid3d& pose = run.poses[i].world_from_sensor;
+    const core::Rigid3d next = i > 0 ? pose * (run.poses[i - 1].world_from_sensor.Inverse() * pose) : pose;
+    const core::PoseError moved = core::ComparePoses(view, next);
+    const bool far = moved.translation_m > by_motion.reuse_max_motion_m ||
+                     moved.rotation_rad * 180 / std::numbers::pi > by_motion.reuse_max_motion_deg;
+    const bool due = ++since >= 8;
+    EXPECT_EQ(f.raycast_ms > 0, i == 0 || !normal || due || far) << "frame " << f.index;
+    if (f.raycast_ms > 0) {
+      ++cast;
+      by_rule += normal && !due && far;
+      since = 0;
+      view = pose;
+    }
+  }
+  int counted_casts = 0;
+  for (const FrameRecord& f : counted.frames) counted_casts += f.raycast_ms > 0;
+  EXPECT_GT(by_rule, 3);                // the rule cast where the count would not have
+  EXPECT_GT(cast, counted_casts);
+  EXPECT_LT(cast, static_cast<int>(run.frames.size()));
+  // The bound of every frame's (10 mm), and within 1 mm of casting after every frame.
+  EXPECT_LT(run.eval.ate_m.rmse, 0.010);
+  EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.001);
+}
+
 // integrate_between_raycasts false (the default): exactly the frames after which the model
 // is raycast are integrated (the others keep their pose, with integrate_ms 0), and tracking
 // is as accurate as integrating every frame (the default's surface against the truth:
@@ -428,7 +490,8 @@ TEST(Reconstruction, FramesBetweenRaycastsAreTrackedButNotIntegrated) {
   }
   for (const FrameRecord& f : reference.frames) EXPECT_TRUE(f.integrated) << "frame " << f.index;
   EXPECT_LT(integrated, static_cast<int>(run.frames.size()));
-  EXPECT_GT(integrated, static_cast<int>(run.frames.size()) / 2 - 1);  // interval 2: at least every other
+  // At least every raycast_interval-th (8); the motion limits cast more often on this scan.
+  EXPECT_GE(integrated, static_cast<int>(run.frames.size()) / 8);
   EXPECT_EQ(run.eval.associated_pairs, static_cast<int>(run.frames.size()));  // every frame has a pose
   // The bound of every frame's (10 mm), and within 1 mm of the reference (the run with every
   // frame integrated): a surface is seen in all of this scan's frames, half of them fuse it.
@@ -451,6 +514,14 @@ TEST(ReconstructionOptions, CheckNamesTheField) {
     o = ReconstructionOptions();
     o.raycast_interval = interval;
     EXPECT_NE(o.Check().find("raycast_interval"), std::string::npos) << interval;
+  }
+  for (double bad : {0.0, -1.0, std::numeric_limits<double>::infinity()}) {
+    o = ReconstructionOptions();
+    o.reuse_max_motion_m = bad;
+    EXPECT_NE(o.Check().find("reuse_max_motion_m"), std::string::npos) << bad;
+    o = ReconstructionOptions();
+    o.reuse_max_motion_deg = bad;
+    EXPECT_NE(o.Check().find("reuse_max_motion_deg"), std::string::npos) << bad;
   }
   ScanReconstructionOptions s;
   s.first_frame = -1;

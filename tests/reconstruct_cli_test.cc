@@ -72,7 +72,8 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
                           "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
-                          "\"interval\": 2", "\"integrate_between_raycasts\": false", "\"integrated\": true",
+                          "\"interval\": 8", "\"reuse_max_motion_m\": 0.04", "\"reuse_max_motion_deg\": 2.5",
+                          "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
@@ -262,6 +263,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                    " --raycast-interval 0");
   EXPECT_EQ(interval.exit_code, 2) << interval.output;
   EXPECT_NE(interval.output.find("raycast_interval"), std::string::npos) << interval.output;
+  const Result motion = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                 " --reuse-max-motion-deg 0");
+  EXPECT_EQ(motion.exit_code, 2) << motion.output;
+  EXPECT_NE(motion.output.find("reuse_max_motion_deg"), std::string::npos) << motion.output;
   const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
