@@ -105,11 +105,10 @@ std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const Pinh
   const Eigen::Vector3f translation = depth_from_world.translation.cast<float>();
   const float margin_m = static_cast<float>(options.margin_m);
   const float margin_fraction = static_cast<float>(options.margin_fraction);
-  std::vector<std::vector<Eigen::Vector3f>> parts(std::max(1, ResolveThreads(num_threads)));
-  std::atomic<int> next_part{0};
+  std::vector<std::vector<Eigen::Vector3f>> parts(model.height);  // per model row: in row order
   ForEachBand(model.height, num_threads, [&](int begin, int end) {
-    std::vector<Eigen::Vector3f>& part = parts[next_part++];
     for (int v = begin; v < end; ++v) {
+      std::vector<Eigen::Vector3f>& part = parts[v];
       for (int u = 0; u < model.width; ++u) {
         const Eigen::Vector3f& point = model.points[model.Index(u, v)];
         if (!IsValid(point)) continue;

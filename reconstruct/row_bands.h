@@ -1,14 +1,19 @@
 #pragma once
 
 // Coarse threading for the per-pixel stages of reconstruct/: an image's rows (or any range
-// of work items) split into one contiguous band per thread, run with std::thread, the
-// calling thread taking the last band. Coarse on purpose: the target machine has 2 shared
-// cores, where spinning waits and fine-grained tasks cost more than they save.
+// of work items) split into a few contiguous pieces per thread, run by a small pool of
+// persistent worker threads and the calling thread. Coarse on purpose: the target machine
+// has 2 shared cores, where spinning waits and fine-grained tasks cost more than they save.
+// Pieces rather than one band per thread, and a pool rather than threads started per call,
+// because the cores are shared: a thread started for a 1 ms stage while another process
+// holds the other core waits its turn, and the call waited for it (measured before the
+// pool: depth preparation and tracking 2.5× slower with 2 threads than with 1 beside a
+// rendering process, README "Reconstruction", Speed). Now whoever runs takes the next
+// piece, and the caller waits only for pieces a worker has started.
 
 #include <algorithm>
-#include <system_error>
+#include <functional>
 #include <thread>
-#include <vector>
 
 namespace hw::reconstruct {
 
@@ -18,28 +23,30 @@ inline int ResolveThreads(int requested) {
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
-// Calls band(begin, end) on disjoint ranges covering [0, num_items), at most `num_threads`
-// of them at once (0: hardware concurrency). Returns when all have finished; a band whose
-// thread cannot be started runs on the calling thread. `band` must not throw.
+namespace internal {
+// ForEachBand's engine: calls band(begin, end) on `num_pieces` contiguous pieces covering
+// [0, num_items) in order of their start, on the calling thread and on up to
+// `num_threads` − 1 pool workers. Runs everything on the calling thread when the pool is
+// already serving another call (nested or concurrent calls) or cannot start its workers.
+void RunPieces(int num_items, int num_pieces, int num_threads, const std::function<void(int, int)>& band);
+}  // namespace internal
+
+// Calls band(begin, end) on disjoint contiguous ranges covering [0, num_items), each once,
+// at most `num_threads` (0: hardware concurrency) at once; how many ranges there are is not
+// specified (a few per thread), so a caller must not keep one result per call or per
+// thread indexed by call order — index results by item. Returns when all have finished.
+// `band` must not throw.
 template <typename Band>
 void ForEachBand(int num_items, int num_threads, const Band& band) {
-  const int bands = std::min(ResolveThreads(num_threads), num_items);
-  if (bands <= 1) {
+  const int threads = std::min(ResolveThreads(num_threads), num_items);
+  if (threads <= 1) {
     if (num_items > 0) band(0, num_items);
     return;
   }
-  std::vector<std::thread> workers;
-  workers.reserve(bands - 1);
-  auto begin_of = [&](int i) { return static_cast<int>(static_cast<long>(num_items) * i / bands); };
-  for (int i = 0; i + 1 < bands; ++i) {
-    try {
-      workers.emplace_back([&band, b = begin_of(i), e = begin_of(i + 1)] { band(b, e); });
-    } catch (const std::system_error&) {
-      band(begin_of(i), begin_of(i + 1));  // no thread to be had: do it here
-    }
-  }
-  band(begin_of(bands - 1), num_items);
-  for (auto& worker : workers) worker.join();
+  // Four pieces per thread: a thread that starts late (the core was busy) leaves at most a
+  // quarter of its share to wait for.
+  internal::RunPieces(num_items, std::min(num_items, 4 * threads), threads,
+                      [&band](int begin, int end) { band(begin, end); });
 }
 
 }  // namespace hw::reconstruct
