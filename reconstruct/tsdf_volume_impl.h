@@ -11,6 +11,7 @@
 
 #include <absl/container/flat_hash_map.h>
 
+#include "reconstruct/row_bands.h"
 #include "reconstruct/tsdf_volume.h"
 
 namespace hw::reconstruct {
@@ -39,18 +40,19 @@ inline int ResolveThreads(int num_threads) {
   return n == 0 ? 1 : static_cast<int>(n);
 }
 
-// Runs f(0) … f(n − 1) on n threads (f(0) on the caller's), one coarse chunk each.
+// Runs f(0) … f(n − 1), each once, up to n at a time: on the calling thread and the
+// workers of ForEachBand's pool (row_bands.h), each taking the next chunk not yet started —
+// so a worker the scheduler starts late leaves its chunk to the caller instead of holding
+// up the call. Chunks may therefore run one after another on one thread.
 template <class F>
 void RunChunks(int n, const F& f) {
   if (n <= 1) {
     f(0);
     return;
   }
-  std::vector<std::thread> threads;
-  threads.reserve(n - 1);
-  for (int i = 1; i < n; ++i) threads.emplace_back([&f, i] { f(i); });
-  f(0);
-  for (auto& t : threads) t.join();
+  RunPieces(n, n, n, [&f](int begin, int end) {
+    for (int c = begin; c < end; ++c) f(c);
+  });
 }
 
 }  // namespace internal
