@@ -7,7 +7,7 @@
 // Pieces rather than one band per thread, and a pool rather than threads started per call,
 // because the cores are shared: a thread started for a 1 ms stage while another process
 // holds the other core waits its turn, and the call waited for it (measured before the
-// pool: depth preparation and tracking 2.5× slower with 2 threads than with 1 beside a
+// pool: depth preparation and tracking 3-4× slower with 2 threads than with 1 beside a
 // rendering process, README "Reconstruction", Speed). Now whoever runs takes the next
 // piece, and the caller waits only for pieces a worker has started.
 
