@@ -263,7 +263,7 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
   // unbalance contiguous bands); pixels in tile order, so that consecutive rays read the
   // same few blocks while they are in cache (a row of a 640-pixel image crosses ~100 blocks,
   // 600 KB: more than a core's share of cache on a loaded machine).
-  const int num_threads = std::min(internal::ResolveThreads(options.num_threads), ranges.tiles_y);
+  const int num_threads = std::min(ResolveThreads(options.num_threads), ranges.tiles_y);
   internal::RunChunks(num_threads, [&](int chunk) {
     TsdfSampler sampler(volume);
     for (int ty = chunk; ty < ranges.tiles_y; ty += num_threads) {
@@ -305,7 +305,7 @@ PointMap Raycast(const TsdfVolume& volume, const CameraRays& rays,
   // As the pinhole overload, in tiles of the distorted image: neighbouring pixels have
   // neighbouring rays, whatever the lens, so the cache locality holds.
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  const int num_threads = std::min(internal::ResolveThreads(options.num_threads), tiles_y);
+  const int num_threads = std::min(ResolveThreads(options.num_threads), tiles_y);
   internal::RunChunks(num_threads, [&](int chunk) {
     TsdfSampler sampler(volume);
     for (int ty = chunk; ty < tiles_y; ty += num_threads) {

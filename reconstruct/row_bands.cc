@@ -115,8 +115,7 @@ void RunPieces(int num_items, int num_pieces, int num_threads, const std::functi
   job->num_items = num_items;
   job->num_pieces = num_pieces;
   job->max_workers = num_threads - 1;
-  if (Pool::Get().Run(job, num_threads)) return;
-  for (int p = 0; p < num_pieces; ++p) band(job->Begin(p), job->Begin(p + 1));
+  if (!Pool::Get().Run(job, num_threads)) band(0, num_items);
 }
 
 }  // namespace hw::reconstruct::internal

@@ -27,7 +27,8 @@ namespace internal {
 // ForEachBand's engine: calls band(begin, end) on `num_pieces` contiguous pieces covering
 // [0, num_items) in order of their start, on the calling thread and on up to
 // `num_threads` − 1 pool workers. Runs everything on the calling thread when the pool is
-// already serving another call (nested or concurrent calls) or cannot start its workers.
+// already serving another call (nested or concurrent calls; then as one range) or cannot
+// start its workers.
 void RunPieces(int num_items, int num_pieces, int num_threads, const std::function<void(int, int)>& band);
 }  // namespace internal
 
@@ -45,8 +46,7 @@ void ForEachBand(int num_items, int num_threads, const Band& band) {
   }
   // Four pieces per thread: a thread that starts late (the core was busy) leaves at most a
   // quarter of its share to wait for.
-  internal::RunPieces(num_items, std::min(num_items, 4 * threads), threads,
-                      [&band](int begin, int end) { band(begin, end); });
+  internal::RunPieces(num_items, std::min(num_items, 4 * threads), threads, band);
 }
 
 }  // namespace hw::reconstruct

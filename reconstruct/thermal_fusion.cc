@@ -76,7 +76,7 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
                                                        const Eigen::Vector3d& angular_velocity_radps, double operating,
                                                        std::span<const LiveDepth> live, ThermalFrameRecord& record) {
   const int width = map.width, height = map.height;
-  const int num_threads = std::min(internal::ResolveThreads(options.num_threads), height);
+  const int num_threads = std::min(ResolveThreads(options.num_threads), height);
   std::vector<ShadePart>& parts = shade_scratch;
   parts.resize(num_threads);
   for (ShadePart& part : parts) part.Clear();
@@ -486,7 +486,7 @@ void ThermalFusion::Finish() {
     surface[k] = Observation{grouped[k].surface_c, grouped[k].confidence};
     apparent[k] = Observation{grouped[k].apparent_c, grouped[k].confidence};
   }
-  const int num_threads = internal::ResolveThreads(m.options.num_threads);
+  const int num_threads = ResolveThreads(m.options.num_threads);
   std::vector<int64_t> rejected(num_threads, 0);
   internal::RunChunks(num_threads, [&](int chunk) {
     for (size_t i = chunk; i < n_regions; i += num_threads) {
@@ -519,7 +519,7 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
   out.view_m.assign(n, Eigen::Vector3f::Constant(kNaN));
   out.views.assign(n, 0);
   if (m.regions.empty() || m.voxel_m == 0) return out;
-  const int num_threads = std::max(1, std::min<int>(internal::ResolveThreads(m.options.num_threads),
+  const int num_threads = std::max(1, std::min<int>(ResolveThreads(m.options.num_threads),
                                                     static_cast<int>(n / 4096) + 1));
   internal::RunChunks(num_threads, [&](int chunk) {
     uint64_t cached_key = ~uint64_t{0};

@@ -95,7 +95,7 @@ void ThermalFusion::Impl::Splat(const std::vector<Ray>& fused, ThermalFrameRecor
   // the regions it owns (runs of 64 region indices dealt round-robin, so that
   // two threads never write the same cache line); (4) each thread runs the update rules
   // on its own regions.
-  const int num_threads = std::max(1, std::min(internal::ResolveThreads(options.num_threads),
+  const int num_threads = std::max(1, std::min(ResolveThreads(options.num_threads),
                                                static_cast<int>(fused.size() / 1024) + 1));
   constexpr int32_t kMissing = -1, kOutOfRange = -2;
   std::vector<std::vector<SplatRef>>& parts = splat_scratch;

@@ -482,7 +482,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
           colour->rgb.rows == colour->camera.height));
   IntegrateStats stats;
   Impl& impl = *impl_;
-  const int num_threads = internal::ResolveThreads(options_.num_threads);
+  const int num_threads = ResolveThreads(options_.num_threads);
   const float voxel_m = voxel_size_m();
   const float block_m = voxel_m * kBlockSide;
   const float truncation_m = static_cast<float>(options_.truncation_m);

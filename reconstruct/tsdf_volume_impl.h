@@ -6,7 +6,6 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
-#include <thread>
 #include <vector>
 
 #include <absl/container/flat_hash_map.h>
@@ -32,13 +31,6 @@ inline bool KeyInRange(int x, int y, int z) {
 // Whether Integrate may use its SIMD row kernel where the CPU has one (true). A test hook:
 // the scalar kernel is the reference the SIMD one must match bit for bit.
 inline std::atomic<bool> integrate_simd{true};
-
-// Threads to use for a num_threads option (0: hardware concurrency).
-inline int ResolveThreads(int num_threads) {
-  if (num_threads > 0) return num_threads;
-  const unsigned n = std::thread::hardware_concurrency();
-  return n == 0 ? 1 : static_cast<int>(n);
-}
 
 // Runs f(0) … f(n − 1), each once, up to n at a time: on the calling thread and the
 // workers of ForEachBand's pool (row_bands.h), each taking the next chunk not yet started —
