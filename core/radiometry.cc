@@ -240,6 +240,59 @@ double BandRadiance::Temperature(double radiance) const {
   return kNaN;  // not reached for radiances of temperatures in ~[1 K, 1e30 K]
 }
 
+BandRadianceTable::BandRadianceTable(const BandRadiance& band, double min_k, double max_k, double step_k)
+    : band_(band), min_k_(min_k), step_k_(step_k), inverse_step_k_(1.0 / step_k) {
+  assert(min_k > 0 && max_k > min_k && step_k > 0 && step_k <= max_k - min_k);
+  const int nodes = static_cast<int>(std::ceil((max_k - min_k) / step_k)) + 1;
+  radiance_.resize(nodes);
+  slope_.resize(nodes);
+  for (int i = 0; i < nodes; ++i) {
+    double derivative;
+    band_.RadianceAndDerivative(min_k + i * step_k, &radiance_[i], &derivative);
+    slope_[i] = step_k * derivative;
+  }
+}
+
+double BandRadianceTable::Radiance(double temperature_k) const {
+  const double x = (temperature_k - min_k_) * inverse_step_k_;
+  // NaN fails the test too.
+  if (!(x >= 0 && x < static_cast<double>(radiance_.size() - 1))) return band_.Radiance(temperature_k);
+  const size_t i = static_cast<size_t>(x);
+  const double s = x - static_cast<double>(i), r = 1 - s;
+  // Hermite basis: (1 + 2s)(1 - s)^2, s(1 - s)^2, s^2(3 - 2s), s^2(s - 1).
+  return (1 + 2 * s) * r * r * radiance_[i] + s * r * r * slope_[i] + s * s * (3 - 2 * s) * radiance_[i + 1] -
+         s * s * r * slope_[i + 1];
+}
+
+double BandRadianceTable::Temperature(double radiance) const {
+  if (!(radiance >= radiance_.front() && radiance < radiance_.back())) return band_.Temperature(radiance);
+  const size_t i = static_cast<size_t>(std::upper_bound(radiance_.begin(), radiance_.end(), radiance) -
+                                       radiance_.begin()) - 1;
+  const double l0 = radiance_[i], l1 = radiance_[i + 1], m0 = slope_[i], m1 = slope_[i + 1];
+  // The cubic is within ~1e-5 of its chord over one node interval: from the chord's root
+  // Newton's method converges in two steps; four bound it.
+  double s = (radiance - l0) / (l1 - l0);
+  for (int step = 0; step < 4; ++step) {
+    const double r = 1 - s;
+    const double value = (1 + 2 * s) * r * r * l0 + s * r * r * m0 + s * s * (3 - 2 * s) * l1 - s * s * r * m1;
+    const double derivative = 6 * s * r * (l1 - l0) + r * (1 - 3 * s) * m0 + s * (3 * s - 2) * m1;
+    const double ds = (radiance - value) / derivative;
+    s = std::clamp(s + ds, 0.0, 1.0);
+    if (std::abs(ds) <= 1e-14) break;
+  }
+  return min_k_ + (static_cast<double>(i) + s) * step_k_;
+}
+
+double SurfaceFromApparent(const BandRadianceTable& table, double apparent_c, double emissivity,
+                           double reflected_c) {
+  assert(emissivity > 0 && emissivity <= 1);
+  if (emissivity == 1) return apparent_c + 0 * reflected_c;
+  const double radiance = (table.Radiance(CelsiusToKelvin(apparent_c)) -
+                           (1 - emissivity) * table.Radiance(CelsiusToKelvin(reflected_c))) /
+                          emissivity;
+  return KelvinToCelsius(table.Temperature(radiance));  // NaN for radiance <= 0
+}
+
 double ApparentFromSurface(const BandRadiance& band, double surface_c, double emissivity,
                            double reflected_c) {
   assert(emissivity > 0 && emissivity <= 1);

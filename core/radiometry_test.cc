@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <utility>
 #include <vector>
 
@@ -18,6 +19,8 @@ namespace {
 
 using ::testing::HasSubstr;
 using LD = long double;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---- Independent reference: Planck's law integrated numerically in long double. ----
 
@@ -569,6 +572,75 @@ TEST(RadiometryTest, DirectionalEmissivityOutsideRangeIsABug) {
   EXPECT_DEBUG_DEATH(DirectionalEmissivity(EmissivityLaw::kMetal, 1.2, 1.0), "emissivity");
 }
 
+TEST(RadiometryTest, TableMatchesTheSeries) {
+  // Random temperatures over the table's range (and its nodes, where the interpolation is
+  // exact up to rounding) against BandRadiance: the bounds radiometry.h states.
+  std::mt19937 rng(7);
+  for (const Band& b : kBands) {
+    const BandRadiance band(b.lo_um, b.hi_um);
+    const BandRadianceTable table(band);
+    const bool short_wave = b.hi_um < 3;  // n = c2 / (λT) up to ~100: looser, as documented
+    const double max_kelvin = short_wave ? 1e-4 : 1e-6;
+    double worst_relative = 0, worst_kelvin = 0;
+    std::uniform_real_distribution<double> temperature_k(150, 1200);
+    for (int k = 0; k < 20000; ++k) {
+      const double t = k < 100 ? 150 + 0.5 * k : temperature_k(rng);
+      const double exact = band.Radiance(t);
+      worst_relative = std::max(worst_relative, std::abs(table.Radiance(t) / exact - 1));
+      worst_kelvin = std::max(worst_kelvin, std::abs(table.Temperature(exact) - t));
+    }
+    SCOPED_TRACE(testing::Message() << b.lo_um << "-" << b.hi_um << " µm");
+    if (!short_wave) {
+      EXPECT_LT(worst_relative, b.lo_um >= 7 ? 1e-9 : 1e-7);  // LWIR; MWIR (n up to 32)
+    }
+    EXPECT_LT(worst_kelvin, max_kelvin);
+    std::printf("table %.1f-%.1f µm: worst radiance %.1e relative, temperature %.1e K\n", b.lo_um, b.hi_um,
+                worst_relative, worst_kelvin);
+  }
+}
+
+TEST(RadiometryTest, TableFallsBackToTheSeriesOutsideItsRange) {
+  const BandRadiance band(7.5, 14);
+  const BandRadianceTable table(band, 200, 400, 1);
+  for (const double t : {1.0, 100.0, 199.999, 400.0, 401.0, 5000.0, 0.0}) {
+    EXPECT_EQ(table.Radiance(t), band.Radiance(t)) << t;
+    const double l = band.Radiance(t);
+    if (l > 0) {
+      EXPECT_EQ(table.Temperature(l), band.Temperature(l)) << t;
+    }
+  }
+  EXPECT_TRUE(std::isnan(table.Radiance(-1)));
+  EXPECT_TRUE(std::isnan(table.Radiance(kNaN)));
+  EXPECT_EQ(table.Radiance(kInf), kInf);
+  EXPECT_TRUE(std::isnan(table.Temperature(0)));
+  EXPECT_TRUE(std::isnan(table.Temperature(-1)));
+  EXPECT_TRUE(std::isnan(table.Temperature(kNaN)));
+  EXPECT_EQ(table.Temperature(kInf), kInf);
+  // The last node's range: 400 K is past the last interval, still the series' value; just
+  // below it, the cubic's.
+  EXPECT_NEAR(table.Temperature(band.Radiance(399.9999)), 399.9999, 1e-6);
+}
+
+TEST(RadiometryTest, SurfaceFromApparentThroughTheTableMatchesTheSeries) {
+  const BandRadiance band(7.5, 14);
+  const BandRadianceTable table(band);
+  for (const double emissivity : {0.05, 0.3, 0.7, 0.95, 1.0}) {
+    for (const double reflected_c : {-20.0, 20.0, 60.0}) {
+      for (const double apparent_c : {-30.0, 0.0, 19.0, 25.0, 80.0, 300.0}) {
+        const double exact = SurfaceFromApparent(band, apparent_c, emissivity, reflected_c);
+        const double tabled = SurfaceFromApparent(table, apparent_c, emissivity, reflected_c);
+        if (std::isnan(exact)) {  // colder than the reflection alone
+          EXPECT_TRUE(std::isnan(tabled)) << emissivity << " " << reflected_c << " " << apparent_c;
+          continue;
+        }
+        // The radiance error (< 1e-9 relative) divided by the emissivity: 1e-6 K / ε at most.
+        EXPECT_NEAR(tabled, exact, 2e-5) << emissivity << " " << reflected_c << " " << apparent_c;
+      }
+    }
+  }
+  EXPECT_TRUE(std::isnan(SurfaceFromApparent(table, kNaN, 0.9, 20)));
+}
+
 TEST(RadiometryTest, Timing) {
   // Prints the cost per call; no assertion (machine-dependent).
   const BandRadiance band(7.5, 14);
@@ -593,9 +665,16 @@ TEST(RadiometryTest, Timing) {
   const double metal_ns = time_ns([&](int i) {
     return DirectionalEmissivity(EmissivityLaw::kMetal, 0.1, 1.0 - i / double(n));
   });
+  const BandRadianceTable table(band);
+  const double table_radiance_ns = time_ns([&](int i) { return table.Radiance(233.15 + 0.005 * i); });
+  const double table_temperature_ns = time_ns([&](int i) { return table.Temperature(l0 + (l1 - l0) * i / n); });
+  const double table_surface_ns =
+      time_ns([&](int i) { return SurfaceFromApparent(table, 20 + 0.001 * i, 0.95, 20); });
   std::printf("per call: Radiance %.0f ns, Temperature %.0f ns, SurfaceFromApparent %.0f ns, "
-              "DirectionalEmissivity dielectric %.0f ns, metal %.0f ns (checksum %g)\n",
-              radiance_ns, temperature_ns, surface_ns, dielectric_ns, metal_ns, sink);
+              "DirectionalEmissivity dielectric %.0f ns, metal %.0f ns; through the table: Radiance %.0f ns, "
+              "Temperature %.0f ns, SurfaceFromApparent %.0f ns (checksum %g)\n",
+              radiance_ns, temperature_ns, surface_ns, dielectric_ns, metal_ns, table_radiance_ns,
+              table_temperature_ns, table_surface_ns, sink);
   EXPECT_TRUE(std::isfinite(sink));
 }
 

@@ -126,7 +126,7 @@ struct SplatRef {
   int32_t i, j, k;  // voxel
   int32_t ray;      // index in the frame's fused rays
   int32_t region;   // < 0: to be created (-1) or outside the key range (-2)
-  float share;      // 1 / splats of the ray
+  float share;      // the ray's footprint points in this voxel / all its points
 };
 
 // Compact() runs when it would drop at least half of the kept observations and at least
@@ -147,7 +147,10 @@ struct ThermalFusion::Impl {
   ThermalFusionOptions options;
   EmissivityMap emissivity;
   std::vector<double> ffc_timestamps_s;
-  core::BandRadiance band;
+  // The camera's band, tabulated: three conversions per ray through the series took 9–10 ms
+  // of a 320×240 frame's ~23 ms of shading (2 s full-size scan, 2 threads); the table's
+  // error is below 1e-6 K in thermal bands (core/radiometry.h).
+  core::BandRadianceTable band;
   CameraRays rays;
   std::vector<float> distortion_confidence;  // c2 per pixel (fixed for the camera)
   std::vector<float> pixel_angle_rad;        // each pixel's angular size (depth-edge test)
@@ -194,7 +197,7 @@ struct ThermalFusion::Impl {
 
   Impl(const core::Rig& r, const ThermalFusionOptions& o, EmissivityMap e, std::vector<double> ffc)
       : rig(r), options(o), emissivity(std::move(e)), ffc_timestamps_s(std::move(ffc)),
-        band(r.thermal_settings->spectral_band_um[0], r.thermal_settings->spectral_band_um[1]),
+        band(core::BandRadiance(r.thermal_settings->spectral_band_um[0], r.thermal_settings->spectral_band_um[1])),
         rays(*r.thermal), scene_correction(o.scene_correction, r.thermal->width, r.thermal->height) {}
 
   // Region of voxel (i, j, k); creates it when `create`. -1 when absent (or out of range).
