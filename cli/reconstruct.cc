@@ -50,6 +50,10 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
   JsonObject tsdf, depth, icp, raycast, mesh, all;
   tsdf.Number("voxel_size_m", r.tsdf.voxel_size_m)
       .Number("truncation_m", r.tsdf.truncation_m)
+      .Number("truncation_noise_sigmas", r.tsdf.truncation_noise_sigmas)
+      .Number("noise_base_m", r.tsdf.noise_base_m)
+      .Number("noise_quadratic_per_m", r.tsdf.noise_quadratic_per_m)
+      .Number("noise_reference_m", r.tsdf.noise_reference_m)
       .Number("max_weight", r.tsdf.max_weight);
   depth.Int("bilateral_radius_px", r.depth.bilateral_radius_px)
       .Number("bilateral_sigma_px", r.depth.bilateral_sigma_px)
@@ -517,6 +521,9 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--voxel-size", r.tsdf.voxel_size_m, "TSDF voxel side, m")->capture_default_str();
   std::optional<double> truncation_m;
   app.add_option("--truncation", truncation_m, "TSDF truncation distance, m; default: 4 voxels");
+  app.add_option("--truncation-noise-sigmas", r.tsdf.truncation_noise_sigmas,
+                 "widen the truncation band to this many sigmas of the depth noise where that is wider (0: fixed band)")
+      ->capture_default_str();
   app.add_option("--max-weight", r.tsdf.max_weight, "TSDF weight cap, frames")->capture_default_str();
   app.add_option("--min-depth", r.min_depth_m, "nearest depth used, m")->capture_default_str();
   app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();

@@ -71,9 +71,10 @@ class SegmentBlocks {
         t_delta[i] = t_max[i] = std::numeric_limits<float>::infinity();
       }
     }
-    // A segment 2·truncation long crosses at most 3 · (2·truncation / block + 1) + 1 blocks;
-    // the bound only guards against rounding.
-    for (int n = 0; n < 64; ++n) {
+    // A segment 2·band long crosses at most 3 · (2·band / block + 1) + 1 blocks (46 for the
+    // default noise model's band at 5 m and 4 cm blocks); the bound only guards against
+    // rounding.
+    for (int n = 0; n < 256; ++n) {
       Add(cell[0], cell[1], cell[2]);
       const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       if (t_max[axis] > 1) break;
@@ -112,7 +113,10 @@ struct FrameParams {
   float u_limit, v_limit;  // nearest pixel inside the image: u in (−0.5, u_limit)
   float u_inner, v_inner;  // the 2×2 pixels of bilinear depth inside: u in [0, u_inner)
   float min_depth_m, max_depth_m;
-  float truncation_m, half_truncation_m, inv_truncation;
+  float truncation_m, half_truncation_m;
+  // The band at depth d: max(truncation_m, noise_sigmas · (noise_base + noise_quadratic ·
+  // (d − noise_reference)²)), TsdfOptions::TruncationAt's operations in its order.
+  float noise_sigmas, noise_base_m, noise_quadratic_per_m, noise_reference_m;
   float edge_slope_per_m;
   float max_weight;
   const float* inv_count;  // 1 / (w + 1) for whole weights 0 … max_weight
@@ -148,9 +152,13 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
     if (!(u > -0.5f && u < f.u_limit && v > -0.5f && v < f.v_limit)) continue;
     float d = f.depth[static_cast<size_t>(v + 0.5f) * f.depth_step + static_cast<size_t>(u + 0.5f)];
     if (!(d >= f.min_depth_m && d <= f.max_depth_m)) continue;
+    // The band of this measurement, from the nearest pixel's depth (the bilinear one differs
+    // by at most the spread accepted below, over which the band hardly changes).
+    const float dz = d - f.noise_reference_m;
+    const float band_m = std::max(f.truncation_m, f.noise_sigmas * (f.noise_base_m + f.noise_quadratic_per_m * (dz * dz)));
     // Bilinear depth can move d by at most the spread it accepts (below): beyond that margin
     // around the band the voxel is free space (tsdf 1) or hidden either way.
-    const float margin_m = f.truncation_m + f.half_truncation_m + d * f.edge_slope_per_m;
+    const float margin_m = band_m + f.half_truncation_m + d * f.edge_slope_per_m;
     if (d - pz < -margin_m) continue;
     if (d - pz < margin_m && u >= 0 && v >= 0 && u < f.u_inner && v < f.v_inner) {
       // Bilinear depth where the four pixels around lie on one surface: the nearest pixel's
@@ -172,15 +180,15 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
       }
     }
     const float sdf_m = d - pz;
-    if (sdf_m < -f.truncation_m) continue;  // hidden behind the surface: unknown
-    const float tsdf = std::min(1.0f, sdf_m * f.inv_truncation);
+    if (sdf_m < -band_m) continue;  // hidden behind the surface: unknown
+    const float tsdf = std::min(1.0f, sdf_m * (1.0f / band_m));
     const float w = voxel->weight;
     const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
     const float inv = static_cast<float>(wi) == w ? f.inv_count[wi] : 1.0f / (w + 1);
     voxel->sdf = (voxel->sdf * w + tsdf) * inv;
     voxel->weight = std::min(w + 1, f.max_weight);
     ++count;
-    if (f.colour_rgb == nullptr || sdf_m >= f.truncation_m) continue;
+    if (f.colour_rgb == nullptr || sdf_m >= band_m) continue;
     const float* r = f.colour_rotation;
     // Summed as Eigen's rotation * p + translation (which it replaced): the same pixel.
     const float qx = (r[0] * row.x[x] + (r[1] * row.y[x] + r[2] * pz)) + f.colour_translation[0];
@@ -301,7 +309,14 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
   mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, min_depth, _CMP_GE_OQ),
                                            _mm256_cmp_ps(d, max_depth, _CMP_LE_OQ)));
   const __m256 slope = _mm256_set1_ps(f.edge_slope_per_m);
-  const __m256 margin = _mm256_add_ps(_mm256_set1_ps(f.truncation_m + f.half_truncation_m), _mm256_mul_ps(d, slope));
+  const __m256 dz = _mm256_sub_ps(d, _mm256_set1_ps(f.noise_reference_m));
+  const __m256 band = _mm256_max_ps(
+      _mm256_set1_ps(f.truncation_m),
+      _mm256_mul_ps(_mm256_set1_ps(f.noise_sigmas),
+                    _mm256_add_ps(_mm256_set1_ps(f.noise_base_m),
+                                  _mm256_mul_ps(_mm256_set1_ps(f.noise_quadratic_per_m), _mm256_mul_ps(dz, dz)))));
+  const __m256 margin =
+      _mm256_add_ps(_mm256_add_ps(band, _mm256_set1_ps(f.half_truncation_m)), _mm256_mul_ps(d, slope));
   const __m256 ahead = _mm256_sub_ps(d, pz);
   // !(ahead < −margin); the operands are finite on mask lanes.
   mask = _mm256_and_ps(mask, _mm256_cmp_ps(ahead, _mm256_sub_ps(zero, margin), _CMP_NLT_UQ));
@@ -323,8 +338,7 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
     d = _mm256_blendv_ps(d, _mm256_add_ps(top, _mm256_mul_ps(c, _mm256_sub_ps(bottom, top))), one);
   }
   const __m256 sdf_m = _mm256_sub_ps(d, pz);
-  const __m256 truncation = _mm256_set1_ps(f.truncation_m);
-  mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, _mm256_sub_ps(zero, truncation), _CMP_NLT_UQ));
+  mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, _mm256_sub_ps(zero, band), _CMP_NLT_UQ));
   const int updated = _mm256_movemask_ps(mask);
   if (updated == 0) return 0;
 
@@ -343,7 +357,7 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
       _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x49), r2, 0x92), order2));
 
   const __m256 unit = _mm256_set1_ps(1.0f);
-  const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf_m, _mm256_set1_ps(f.inv_truncation)), unit);
+  const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf_m, _mm256_div_ps(unit, band)), unit);
   const __m256 weight_1 = _mm256_add_ps(weight, unit);
   // 1 / (w + 1) rounded once: the value inv_count holds for a whole w.
   const __m256 inv = _mm256_div_ps(unit, weight_1);
@@ -353,7 +367,7 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
   const __m256 weight_out = _mm256_blendv_ps(weight, new_weight, mask);
 
   if (f.colour_rgb != nullptr) {
-    __m256 paint = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, truncation, _CMP_LT_OQ));
+    __m256 paint = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, band, _CMP_LT_OQ));
     if (_mm256_movemask_ps(paint) != 0) {
       const float* r = f.colour_rotation;
       __m256 q[3];  // r · p + t, summed as UpdateRowScalar does
@@ -529,8 +543,9 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
         const float d = row[x];
         if (!(d >= min_depth_m && d <= max_depth_m)) continue;
         const Eigen::Vector3f ray = rotation * Eigen::Vector3f(ray_x[x], ray_y, 1.0f);
-        const float near_m = std::max(d - truncation_m, 0.0f);
-        walker.Walk((origin_m + near_m * ray) * inv_block, (origin_m + (d + truncation_m) * ray) * inv_block);
+        const float band_m = options_.TruncationAt(d);
+        const float near_m = std::max(d - band_m, 0.0f);
+        walker.Walk((origin_m + near_m * ray) * inv_block, (origin_m + (d + band_m) * ray) * inv_block);
       }
     }
   });
@@ -582,7 +597,10 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   f.max_depth_m = max_depth_m;
   f.truncation_m = truncation_m;
   f.half_truncation_m = 0.5f * truncation_m;
-  f.inv_truncation = 1.0f / truncation_m;
+  f.noise_sigmas = static_cast<float>(options_.truncation_noise_sigmas);
+  f.noise_base_m = static_cast<float>(options_.noise_base_m);
+  f.noise_quadratic_per_m = static_cast<float>(options_.noise_quadratic_per_m);
+  f.noise_reference_m = static_cast<float>(options_.noise_reference_m);
   f.edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, UpdateRowScalar
   f.max_weight = max_weight;
   f.inv_count = impl.inv_count.data();

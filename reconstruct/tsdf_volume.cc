@@ -19,6 +19,16 @@ std::string TsdfOptions::Check() const {
   if (!(truncation_m >= 2 * voxel_size_m) || !std::isfinite(truncation_m)) {
     return Fail("truncation_m", truncation_m, "finite and >= 2 voxels (2 * voxel_size_m)");
   }
+  if (!(truncation_noise_sigmas >= 0) || !std::isfinite(truncation_noise_sigmas)) {
+    return Fail("truncation_noise_sigmas", truncation_noise_sigmas, "finite and >= 0");
+  }
+  if (!(noise_base_m >= 0) || !std::isfinite(noise_base_m)) return Fail("noise_base_m", noise_base_m, "finite and >= 0 m");
+  if (!(noise_quadratic_per_m >= 0) || !std::isfinite(noise_quadratic_per_m)) {
+    return Fail("noise_quadratic_per_m", noise_quadratic_per_m, "finite and >= 0 1/m");
+  }
+  if (!(noise_reference_m >= 0) || !std::isfinite(noise_reference_m)) {
+    return Fail("noise_reference_m", noise_reference_m, "finite and >= 0 m");
+  }
   if (!InRange(max_weight, 1, 65535)) return Fail("max_weight", max_weight, "in [1, 65535]");
   if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) return Fail("min_depth_m", min_depth_m, ">= 0 m");
   if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
@@ -54,9 +64,7 @@ float TsdfVolume::voxel_size_m() const { return static_cast<float>(options_.voxe
 int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in_world,
                                    const Eigen::Vector3f& camera_in_world) {
   const float voxel_m = voxel_size_m(), inv_voxel_m = 1.0f / voxel_m;
-  const float truncation_m = static_cast<float>(options_.truncation_m);
   const float max_weight = static_cast<float>(options_.max_weight);
-  const int steps = static_cast<int>(std::ceil(truncation_m / (0.5f * voxel_m)));
   // Each voxel once per call: rays of neighbouring points cross the same voxels.
   absl::flat_hash_set<uint64_t> done;
   int64_t updated = 0;
@@ -65,7 +73,9 @@ int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in
     const float length = ray.norm();
     if (!(length > 0)) continue;
     const Eigen::Vector3f direction = ray / length;
-    // Half-voxel steps over [−truncation, +truncation] around the point, nearest voxel.
+    // Half-voxel steps over the band around the point (its width at the point's range: what
+    // a frame that saw it from here fused), nearest voxel.
+    const int steps = static_cast<int>(std::ceil(options_.TruncationAt(length) / (0.5f * voxel_m)));
     for (int k = -steps; k <= steps; ++k) {
       const Eigen::Vector3f p = point + (static_cast<float>(k) * 0.5f * voxel_m) * direction;
       const int ix = FloorToInt(p.x() * inv_voxel_m + 0.5f), iy = FloorToInt(p.y() * inv_voxel_m + 0.5f),

@@ -1,11 +1,13 @@
 #include "reconstruct/tsdf_volume.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <set>
 #include <tuple>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -185,6 +187,117 @@ TEST(TsdfOptions, CheckNamesTheField) {
   EXPECT_EQ(o.Check(), "");
   o.truncation_m = 0.005;
   EXPECT_NE(o.Check().find("truncation_m"), std::string::npos);
+}
+
+TEST(TsdfOptions, TheBandFollowsTheDepthNoiseWhereItIsWider) {
+  TsdfOptions o;
+  // Nguyen et al.'s Kinect model: σ = 1.2 mm + 1.9 mm/m² · (z − 0.4 m)²; 3σ passes 2 cm at 2.1 m.
+  EXPECT_FLOAT_EQ(o.TruncationAt(0.5f), 0.02f);
+  EXPECT_FLOAT_EQ(o.TruncationAt(2.0f), 0.02f);
+  EXPECT_NEAR(o.TruncationAt(3.0f), 3 * (0.0012 + 0.0019 * 2.6 * 2.6), 1e-6);
+  EXPECT_NEAR(o.TruncationAt(4.0f), 3 * (0.0012 + 0.0019 * 3.6 * 3.6), 1e-6);
+  o.truncation_noise_sigmas = 0;
+  EXPECT_FLOAT_EQ(o.TruncationAt(4.0f), 0.02f);
+  for (auto field : {&TsdfOptions::truncation_noise_sigmas, &TsdfOptions::noise_base_m,
+                     &TsdfOptions::noise_quadratic_per_m, &TsdfOptions::noise_reference_m}) {
+    TsdfOptions bad;
+    bad.*field = -0.1;
+    EXPECT_NE(bad.Check(), "");
+    bad.*field = std::numeric_limits<double>::infinity();
+    EXPECT_NE(bad.Check(), "");
+  }
+  TsdfOptions bad;
+  bad.noise_quadratic_per_m = -1;
+  EXPECT_NE(bad.Check().find("noise_quadratic_per_m"), std::string::npos);
+}
+
+// A far frontal plane seen with depth noise about as wide as the fixed band: each voxel on
+// the surface keeps the readings in front (clipped to +1) and drops those more than a band
+// behind, so the fused zero crossing lies behind the plane, by what the same readings give in
+// closed form (the mean of the kept, clipped distances is 0 there). The band widened to 3σ
+// puts it on the plane. 64 frames whose whole image is offset by the 64 quantiles of the
+// noise (a deterministic sample of it; weight cap 64: the voxels hold the exact mean).
+TEST(TsdfIntegrate, FarSurfaceIsNotPushedBackByNoise) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const float plane_z = 3.5f;
+  const double sigma = 0.0012 + 0.0019 * static_cast<double>((plane_z - 0.4f) * (plane_z - 0.4f));  // 19.5 mm
+  std::vector<float> offsets;
+  for (int i = 0; i < 64; ++i) {
+    const double p = (i + 0.5) / 64;
+    double lo = -10, hi = 10;  // the standard normal quantile of p, by bisection
+    for (int k = 0; k < 100; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+    }
+    offsets.push_back(static_cast<float>(sigma * 0.5 * (lo + hi)));
+  }
+  for (const double sigmas : {0.0, 3.0}) {
+    TsdfOptions options;  // 5 mm voxels, 2 cm band: the defaults
+    options.truncation_noise_sigmas = sigmas;
+    options.max_weight = 64;
+    TsdfVolume volume(options);
+    for (const float n : offsets) {
+      // A 16×16-pixel patch around the optical axis (0.4 m across at 3.5 m): the rest of
+      // the plane would only cost time.
+      cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
+      depth(cv::Rect(camera.width / 2 - 8, camera.height / 2 - 8, 16, 16)).setTo(plane_z + n);
+      volume.Integrate(depth, camera, pose);
+    }
+    // The crossing the readings imply (x = plane − z: in front of it), the mean of every
+    // kept reading clipped to the band, and what the grid holds of it: the same mean at the
+    // voxel centres of a layer (all alike), of the readings that voxel was updated with —
+    // those not more than a band behind it, whose band reaches its block (integration
+    // visits only the blocks around each frame's surface: one farther in front keeps its
+    // voxels unchanged, not +1) — linear between the two layers around the crossing.
+    const float band = options.TruncationAt(plane_z);  // for the trace
+    const float h = volume.voxel_size_m(), block_m = kBlockSide * h;
+    auto mean_kept = [&](float z, bool blocks) {
+      const float block_lo = std::floor(z / block_m) * block_m;
+      double sum = 0;
+      int kept = 0;
+      for (const float n : offsets) {
+        const float d = plane_z + n, band_d = options.TruncationAt(d);  // each reading its band
+        if (d - z < -band_d) continue;
+        if (blocks && !(d + band_d >= block_lo && d - band_d < block_lo + block_m)) continue;
+        sum += static_cast<double>(std::min(1.0f, (d - z) * (1.0f / band_d)));
+        ++kept;
+      }
+      return sum / kept;
+    };
+    float lo = plane_z - 0.05f, hi = plane_z + 0.05f;  // mean_kept decreases with z
+    for (int k = 0; k < 60; ++k) (mean_kept(0.5f * (lo + hi), false) > 0 ? lo : hi) = 0.5f * (lo + hi);
+    const float implied_z = 0.5f * (lo + hi);
+    float z0 = std::round(plane_z / h) * h;
+    while (mean_kept(z0, true) <= 0) z0 -= h;
+    while (mean_kept(z0 + h, true) > 0) z0 += h;
+    const double v0 = mean_kept(z0, true), v1 = mean_kept(z0 + h, true);
+    const float expected_z = z0 + h * static_cast<float>(v0 / (v0 - v1));
+    // The fused crossing along a ray near the optical axis (off the voxel grid's planes).
+    TsdfSampler sampler(volume);
+    auto sdf_at = [&](float z) {
+      float s = 0;
+      EXPECT_TRUE(sampler.Sdf(Eigen::Vector3f(0.0123f, -0.0071f, z), s)) << z;
+      return s;
+    };
+    float near = plane_z - 0.04f, far = plane_z + 0.04f;
+    ASSERT_GT(sdf_at(near), 0);
+    ASSERT_LT(sdf_at(far), 0);
+    for (int k = 0; k < 40; ++k) (sdf_at(0.5f * (near + far)) > 0 ? near : far) = 0.5f * (near + far);
+    const float fused_z = 0.5f * (near + far);
+    SCOPED_TRACE(testing::Message() << "sigmas " << sigmas << ", band " << band << " m");
+    // The running means in float, the bisections: 0.05 mm.
+    EXPECT_NEAR(fused_z, expected_z, 5e-5f);
+    if (sigmas == 0) {
+      EXPECT_GT(implied_z - plane_z, 0.007f);  // 7.8 mm behind (σ ≈ the band) ...
+      EXPECT_GT(fused_z - plane_z, 0.006f);    // ... 6.6 mm in the grid's blocks
+    } else {
+      // Not quite on it: each reading has its own depth's band (±1.7 mm over the readings
+      // here), which weighs the nearer ones' distances more: 0.2 mm.
+      EXPECT_NEAR(implied_z, plane_z, 5e-4f);
+      EXPECT_NEAR(fused_z, plane_z, 5e-4f);
+    }
+  }
 }
 
 // ---------------------------------------------------------------- integration
@@ -390,17 +503,13 @@ TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
 // branch: depth edges (a sphere before a slanted wall), noise, holes and NaN pixels, a wall
 // filling the image to its last row and column, colour through an offset camera whose image
 // also ends inside the view, and a fractional weight cap (weights that are not whole).
-TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "no AVX2: only the scalar kernel runs";
-#else
-  GTEST_SKIP() << "no SIMD kernel on this architecture";
-#endif
+// Integrates the same noisy frames with the AVX2 kernel and the scalar one and expects the
+// same bits in every voxel.
+void ExpectSimdWritesTheScalarBits(TsdfOptions options) {
   const PinholeCamera camera = SmallCamera();
   std::mt19937 random(7);
   std::normal_distribution<float> noise(0.0f, 0.003f);
   std::uniform_int_distribution<int> byte(0, 255), percent(0, 99);
-  TsdfOptions options = SmallOptions(2);
   options.max_weight = 2.5;
   TsdfVolume simd(options), scalar(options);
   const Eigen::Vector3d eyes[] = {{0, 0, 0}, {0.1, -0.05, 0.05}, {-0.08, 0.04, -0.1}, {0.02, 0.1, 0.0}};
@@ -452,6 +561,29 @@ TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
   EXPECT_EQ(differ, 0);
   EXPECT_GT(fractional, 10000);  // the cap was reached: w + 1 = 3.5 was divided by
   EXPECT_GT(painted, 10000);
+}
+
+bool CpuRunsTheSimdKernel() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
+  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  ExpectSimdWritesTheScalarBits(SmallOptions(2));  // surfaces at 1-1.3 m: the fixed 3 cm band
+}
+
+// The band from the depth noise, varying from voxel to voxel: a noise model steep enough
+// that 3σ is 5.8 cm at 1 m and 10 cm at 1.2 m.
+TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithTheNoiseBand) {
+  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  TsdfOptions options = SmallOptions(2);
+  options.noise_quadratic_per_m = 0.05;
+  ASSERT_GT(options.TruncationAt(1.0f), 0.05f);
+  ExpectSimdWritesTheScalarBits(options);
 }
 
 TEST(TsdfIntegrate, NothingToFuse) {

@@ -73,6 +73,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
                           "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
                           "\"interval\": 8", "\"reuse_max_motion_m\": 0.04", "\"reuse_max_motion_deg\": 2.5",
+                          "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019",
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\""}) {
@@ -267,6 +268,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                  " --reuse-max-motion-deg 0");
   EXPECT_EQ(motion.exit_code, 2) << motion.output;
   EXPECT_NE(motion.output.find("reuse_max_motion_deg"), std::string::npos) << motion.output;
+  const Result band = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                               " --truncation-noise-sigmas -1");
+  EXPECT_EQ(band.exit_code, 2) << band.output;
+  EXPECT_NE(band.output.find("truncation_noise_sigmas"), std::string::npos) << band.output;
   const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
