@@ -190,6 +190,8 @@ struct RayMarch {
       t_previous = t;
       sdf_previous = sdf;
       have_previous = true;
+      // sdf is in units of each reading's band (truncation_m or wider at range: TsdfOptions::
+      // TruncationAt), so sdf · truncation_m never oversteps the distance to the surface.
       t += std::max(sdf, min_step) * t_per_truncation;
     }
   }

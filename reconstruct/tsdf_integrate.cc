@@ -71,10 +71,10 @@ class SegmentBlocks {
         t_delta[i] = t_max[i] = std::numeric_limits<float>::infinity();
       }
     }
-    // A segment 2·band long crosses at most 3 · (2·band / block + 1) + 1 blocks (46 for the
-    // default noise model's band at 5 m and 4 cm blocks); the bound only guards against
-    // rounding.
-    for (int n = 0; n < 256; ++n) {
+    // A segment crosses at most Σ_i (|b_i − a_i| + 1) + 1 blocks (23 for the default noise
+    // model's band at 5 m and 4 cm blocks); the bound only guards against rounding.
+    const int max_blocks = static_cast<int>(std::abs(b[0] - a[0]) + std::abs(b[1] - a[1]) + std::abs(b[2] - a[2])) + 5;
+    for (int n = 0; n < max_blocks; ++n) {
       Add(cell[0], cell[1], cell[2]);
       const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       if (t_max[axis] > 1) break;

@@ -82,7 +82,8 @@ inline constexpr int kBlockShift = 3;
 static_assert(kBlockSide == 1 << kBlockShift);
 inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 
-// One voxel. sdf is the truncated signed distance divided by truncation_m, in [−1, 1]
+// One voxel. sdf is the mean of the readings' truncated signed distances, each divided by its
+// band (truncation_m, wider for far readings: TsdfOptions::TruncationAt), in [−1, 1]
 // (positive in front of the surface, towards the cameras that saw it); weight 0 means never
 // observed (sdf and colour then meaningless).
 // colour_weight counts the observations that painted the voxel (capped at min(max_weight,
