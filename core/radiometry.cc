@@ -283,14 +283,24 @@ double BandRadianceTable::Temperature(double radiance) const {
   return min_k_ + (static_cast<double>(i) + s) * step_k_;
 }
 
-double SurfaceFromApparent(const BandRadianceTable& table, double apparent_c, double emissivity,
-                           double reflected_c) {
+namespace {
+
+// SurfaceFromApparent through either conversion (BandRadiance or its table).
+template <class Conversion>
+double SurfaceFromApparentWith(const Conversion& band, double apparent_c, double emissivity, double reflected_c) {
   assert(emissivity > 0 && emissivity <= 1);
   if (emissivity == 1) return apparent_c + 0 * reflected_c;
-  const double radiance = (table.Radiance(CelsiusToKelvin(apparent_c)) -
-                           (1 - emissivity) * table.Radiance(CelsiusToKelvin(reflected_c))) /
+  const double radiance = (band.Radiance(CelsiusToKelvin(apparent_c)) -
+                           (1 - emissivity) * band.Radiance(CelsiusToKelvin(reflected_c))) /
                           emissivity;
-  return KelvinToCelsius(table.Temperature(radiance));  // NaN for radiance <= 0
+  return KelvinToCelsius(band.Temperature(radiance));  // NaN for radiance <= 0
+}
+
+}  // namespace
+
+double SurfaceFromApparent(const BandRadianceTable& table, double apparent_c, double emissivity,
+                           double reflected_c) {
+  return SurfaceFromApparentWith(table, apparent_c, emissivity, reflected_c);
 }
 
 double ApparentFromSurface(const BandRadiance& band, double surface_c, double emissivity,
@@ -304,12 +314,7 @@ double ApparentFromSurface(const BandRadiance& band, double surface_c, double em
 
 double SurfaceFromApparent(const BandRadiance& band, double apparent_c, double emissivity,
                            double reflected_c) {
-  assert(emissivity > 0 && emissivity <= 1);
-  if (emissivity == 1) return apparent_c + 0 * reflected_c;
-  const double radiance = (band.Radiance(CelsiusToKelvin(apparent_c)) -
-                           (1 - emissivity) * band.Radiance(CelsiusToKelvin(reflected_c))) /
-                          emissivity;
-  return KelvinToCelsius(band.Temperature(radiance));  // NaN for radiance <= 0
+  return SurfaceFromApparentWith(band, apparent_c, emissivity, reflected_c);
 }
 
 SurfaceTemperature SurfaceFromApparentWithDerivatives(const BandRadiance& band,
