@@ -114,9 +114,7 @@ struct FrameParams {
   float u_inner, v_inner;  // the 2×2 pixels of bilinear depth inside: u in [0, u_inner)
   float min_depth_m, max_depth_m;
   float truncation_m, half_truncation_m;
-  // The band at depth d: max(truncation_m, noise_sigmas · (noise_base + noise_quadratic ·
-  // (d − noise_reference)²)), TsdfOptions::TruncationAt's operations in its order.
-  float noise_sigmas, noise_base_m, noise_quadratic_per_m, noise_reference_m;
+  TsdfOptions::NoiseBand band;  // the band at a reading's depth: band.At(d)
   float edge_slope_per_m;
   float max_weight;
   const float* inv_count;  // 1 / (w + 1) for whole weights 0 … max_weight
@@ -154,8 +152,7 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
     if (!(d >= f.min_depth_m && d <= f.max_depth_m)) continue;
     // The band of this measurement, from the nearest pixel's depth (the bilinear one differs
     // by at most the spread accepted below, over which the band hardly changes).
-    const float dz = d - f.noise_reference_m;
-    const float band_m = std::max(f.truncation_m, f.noise_sigmas * (f.noise_base_m + f.noise_quadratic_per_m * (dz * dz)));
+    const float band_m = f.band.At(d);
     // Bilinear depth can move d by at most the spread it accepts (below): beyond that margin
     // around the band the voxel is free space (tsdf 1) or hidden either way.
     const float margin_m = band_m + f.half_truncation_m + d * f.edge_slope_per_m;
@@ -309,12 +306,13 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
   mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, min_depth, _CMP_GE_OQ),
                                            _mm256_cmp_ps(d, max_depth, _CMP_LE_OQ)));
   const __m256 slope = _mm256_set1_ps(f.edge_slope_per_m);
-  const __m256 dz = _mm256_sub_ps(d, _mm256_set1_ps(f.noise_reference_m));
+  // f.band.At(d) per lane, its operations in its order.
+  const __m256 dz = _mm256_sub_ps(d, _mm256_set1_ps(f.band.reference_m));
   const __m256 band = _mm256_max_ps(
-      _mm256_set1_ps(f.truncation_m),
-      _mm256_mul_ps(_mm256_set1_ps(f.noise_sigmas),
-                    _mm256_add_ps(_mm256_set1_ps(f.noise_base_m),
-                                  _mm256_mul_ps(_mm256_set1_ps(f.noise_quadratic_per_m), _mm256_mul_ps(dz, dz)))));
+      _mm256_set1_ps(f.band.truncation_m),
+      _mm256_mul_ps(_mm256_set1_ps(f.band.sigmas),
+                    _mm256_add_ps(_mm256_set1_ps(f.band.base_m),
+                                  _mm256_mul_ps(_mm256_set1_ps(f.band.quadratic_per_m), _mm256_mul_ps(dz, dz)))));
   const __m256 margin =
       _mm256_add_ps(_mm256_add_ps(band, _mm256_set1_ps(f.half_truncation_m)), _mm256_mul_ps(d, slope));
   const __m256 ahead = _mm256_sub_ps(d, pz);
@@ -502,6 +500,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   const float truncation_m = static_cast<float>(options_.truncation_m);
   const float min_depth_m = static_cast<float>(options_.min_depth_m);
   const float max_depth_m = static_cast<float>(options_.max_depth_m);
+  const TsdfOptions::NoiseBand noise_band = options_.Band();  // per reading: noise_band.At(d)
   const int width = camera.width, height = camera.height;
 
   // 1. Allocation. Every valid pixel's viewing ray between depth − truncation and depth +
@@ -543,7 +542,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
         const float d = row[x];
         if (!(d >= min_depth_m && d <= max_depth_m)) continue;
         const Eigen::Vector3f ray = rotation * Eigen::Vector3f(ray_x[x], ray_y, 1.0f);
-        const float band_m = options_.TruncationAt(d);
+        const float band_m = noise_band.At(d);
         const float near_m = std::max(d - band_m, 0.0f);
         walker.Walk((origin_m + near_m * ray) * inv_block, (origin_m + (d + band_m) * ray) * inv_block);
       }
@@ -597,10 +596,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   f.max_depth_m = max_depth_m;
   f.truncation_m = truncation_m;
   f.half_truncation_m = 0.5f * truncation_m;
-  f.noise_sigmas = static_cast<float>(options_.truncation_noise_sigmas);
-  f.noise_base_m = static_cast<float>(options_.noise_base_m);
-  f.noise_quadratic_per_m = static_cast<float>(options_.noise_quadratic_per_m);
-  f.noise_reference_m = static_cast<float>(options_.noise_reference_m);
+  f.band = noise_band;
   f.edge_slope_per_m = 4.0f / std::min(camera.fx, camera.fy);  // depth steps, UpdateRowScalar
   f.max_weight = max_weight;
   f.inv_count = impl.inv_count.data();

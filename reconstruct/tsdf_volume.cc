@@ -65,6 +65,7 @@ int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in
                                    const Eigen::Vector3f& camera_in_world) {
   const float voxel_m = voxel_size_m(), inv_voxel_m = 1.0f / voxel_m;
   const float max_weight = static_cast<float>(options_.max_weight);
+  const TsdfOptions::NoiseBand band = options_.Band();
   // Each voxel once per call: rays of neighbouring points cross the same voxels.
   absl::flat_hash_set<uint64_t> done;
   int64_t updated = 0;
@@ -75,7 +76,7 @@ int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in
     const Eigen::Vector3f direction = ray / length;
     // Half-voxel steps over the band around the point (its width at the point's range: what
     // a frame that saw it from here fused), nearest voxel.
-    const int steps = static_cast<int>(std::ceil(options_.TruncationAt(length) / (0.5f * voxel_m)));
+    const int steps = static_cast<int>(std::ceil(band.At(length) / (0.5f * voxel_m)));
     for (int k = -steps; k <= steps; ++k) {
       const Eigen::Vector3f p = point + (static_cast<float>(k) * 0.5f * voxel_m) * direction;
       const int ix = FloorToInt(p.x() * inv_voxel_m + 0.5f), iy = FloorToInt(p.y() * inv_voxel_m + 0.5f),

@@ -58,15 +58,22 @@ struct TsdfOptions {
 
   std::string Check() const;  // "" when valid, else names the field, value and constraint
 
-  // The half-width of the band (m) of a measurement at depth_m (m): max(truncation_m,
-  // truncation_noise_sigmas · σ_z(depth_m)). Float, in the order the integration kernels
-  // compute it (they must give the same bits).
-  float TruncationAt(float depth_m) const {
-    const float dz = depth_m - static_cast<float>(noise_reference_m);
-    return std::max(static_cast<float>(truncation_m),
-                    static_cast<float>(truncation_noise_sigmas) *
-                        (static_cast<float>(noise_base_m) + static_cast<float>(noise_quadratic_per_m) * (dz * dz)));
+  // The band model in float, as the integration kernels evaluate it (they must give the
+  // same bits): Band().At(depth_m) is the half-width of the band (m) of a measurement at
+  // depth_m (m), max(truncation_m, truncation_noise_sigmas · σ_z(depth_m)).
+  struct NoiseBand {
+    float truncation_m, sigmas, base_m, quadratic_per_m, reference_m;
+    float At(float depth_m) const {
+      const float dz = depth_m - reference_m;
+      return std::max(truncation_m, sigmas * (base_m + quadratic_per_m * (dz * dz)));
+    }
+  };
+  NoiseBand Band() const {
+    return {static_cast<float>(truncation_m), static_cast<float>(truncation_noise_sigmas),
+            static_cast<float>(noise_base_m), static_cast<float>(noise_quadratic_per_m),
+            static_cast<float>(noise_reference_m)};
   }
+  float TruncationAt(float depth_m) const { return Band().At(depth_m); }
 };
 
 // floor(x) as an int for |x| < 2^31, without the libm call std::floor becomes on plain
