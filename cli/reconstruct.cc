@@ -67,6 +67,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_normal_angle_deg", r.icp.max_normal_angle_deg)
       .Number("huber_m", r.icp.huber_m)
       .Number("noise_reference_depth_m", r.icp.noise_reference_depth_m)
+      .Number("noise_gate_sigmas", r.icp.noise_gate_sigmas)
       .Number("min_inlier_fraction", r.icp.min_inlier_fraction)
       .Int("min_inliers", r.icp.min_inliers)
       .Number("max_condition", r.icp.max_condition)
@@ -267,6 +268,8 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   scan_options.rig_path = options.rig_path;
   const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
   ReconstructCommandOptions resolved = options;
+  // One depth-noise model: ICP's gate uses the TSDF band's.
+  resolved.reconstruction.icp.depth_noise = options.reconstruction.tsdf.Noise();
   if (!options.poses_path.empty()) {
     resolved.scan.poses = core::ReadTumTrajectory(options.poses_path);
     if (resolved.scan.poses->empty()) throw core::InputError(options.poses_path, "holds no pose");
@@ -339,6 +342,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   if (const auto& c = scan.rig().depth_correction) {
     r.depth_correction = core::StringPrintf("%d x %d nodes", c->nx, c->ny);
   }
+  r.noise_gate_sigmas = options.reconstruction.icp.noise_gate_sigmas;
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.integrated += f.integrated;
@@ -461,6 +465,10 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   if (!r.depth_correction.empty()) {
     out += "Depth      corrected with rig.yaml's depth_correction (" + r.depth_correction + ")\n";
   }
+  if (r.noise_gate_sigmas > 0) {
+    out += core::StringPrintf("Tracking   ICP gate and Huber threshold widened to %g sigmas of the depth noise "
+                              "where wider (--icp-noise-gate)\n", r.noise_gate_sigmas);
+  }
   const int processed = r.depth_frames - r.missing;
   out += core::StringPrintf("Speed      %.1f frames/s processing (%.1f ms/frame: prepare %.1f, track %.1f, "
                             "integrate %.1f, raycast %.1f after %d of them); decoding %.1f s\n",
@@ -534,6 +542,10 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--icp-noise-depth", r.icp.noise_reference_depth_m,
                  "ICP residuals of a point at depth z count (this / z)x: depth noise grows with distance, m "
                  "(0: all alike; helps scenes at 1-2 m, hurts at 3-4 m: README)")
+      ->capture_default_str();
+  app.add_option("--icp-noise-gate", r.icp.noise_gate_sigmas,
+                 "pair ICP points up to this many sigmas of the depth noise apart where that exceeds the gate, "
+                 "Huber threshold alike (0: fixed gate; helps only with an exact depth correction: README)")
       ->capture_default_str();
   app.add_option("--raycast-level", r.raycast_level,
                  "track against the model raycast at this pyramid level (0 full, 1 half resolution)")

@@ -73,6 +73,7 @@ struct ReconstructCommandResult {
   int depth_frames = 0;  // depth frames in the range used
   // The rig's depth_correction applied to every depth frame: "17 x 13 nodes", "" = none.
   std::string depth_correction;
+  double noise_gate_sigmas = 0;  // ICP's depth-noise gate used (IcpOptions::noise_gate_sigmas)
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int integrated = 0;  // fused frames whose depth went into the volume
   int dynamic_frames = 0;      // frames with depth pixels masked as in front of the model

@@ -80,6 +80,8 @@ struct Pass {
   float min_normal_cos = 0;
   float huber = 0;
   float noise_reference_depth = 0;  // m; 0: no depth-dependent weighting
+  // Depth-noise gate (IcpOptions::noise_gate_sigmas; 0: off) and σ_z(z)'s coefficients.
+  float noise_gate_sigmas = 0, noise_base = 0, noise_quadratic = 0, noise_reference = 0;
   // Photometric term, when both are set: the live grey levels (row-major like the live map)
   // and the model's (NaN where unknown), and the term's weight (m per grey level).
   float model_from_live_r[9] = {};  // rotation of model_from_world · world_from_live
@@ -113,10 +115,11 @@ inline Int8 Floor8(Float8 v) {
   const Int8 t = __builtin_convertvector(v, Int8);
   return t + (__builtin_convertvector(t, Float8) > v);  // a true comparison is -1
 }
-inline Float8 HuberWeight8(Float8 r, float k) {
+inline Float8 HuberWeight8(Float8 r, Float8 k) {
   const Float8 abs_r = Abs8(r);
   return Select8(abs_r <= k, Splat8(1.0f), k / abs_r);
 }
+inline Float8 Max8(Float8 a, Float8 b) { return a > b ? a : b; }
 
 // The 6×6 system's sums for one row, eight lanes each: Σ w J_a J_b (upper triangle, a ≤ b,
 // row-major, 21) then Σ w J_a r (6).
@@ -163,6 +166,8 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
   const float max_distance_sq = pass.max_distance_sq, min_normal_cos = pass.min_normal_cos;
   const float huber = pass.huber, lambda = pass.photometric_weight;
   const float noise_ref = pass.noise_reference_depth;
+  const float gate_sigmas = pass.noise_gate_sigmas, noise_base = pass.noise_base,
+              noise_quadratic = pass.noise_quadratic, noise_reference = pass.noise_reference;
   const float* live_intensity = pass.live_intensity;
   const float* model_intensity = pass.model_intensity;
   const float u_max = cam.width - 0.5f, v_max = cam.height - 0.5f;
@@ -232,7 +237,13 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       const Float8 ncy = R[1] * nm[0] + R[4] * nm[1] + R[7] * nm[2];
       const Float8 ncz = R[2] * nm[0] + R[5] * nm[1] + R[8] * nm[2];
       // A model pixel without a normal (NaN) fails both gates.
-      const Int8 inlier = in_image & (dx * dx + dy * dy + dz * dz <= max_distance_sq) &
+      // The lane's noise allowance k·σ_z(z) (0 with the gate off): gate and Huber threshold
+      // are the larger of theirs and it.
+      const Float8 zr = p[2] - noise_reference;
+      const Float8 allowance = gate_sigmas * (noise_base + noise_quadratic * (zr * zr));
+      const Float8 gate_sq = Max8(Splat8(max_distance_sq), allowance * allowance);
+      const Float8 huber_lane = Max8(Splat8(huber), allowance);
+      const Int8 inlier = in_image & (dx * dx + dy * dy + dz * dz <= gate_sq) &
                           (ncx * n[0] + ncy * n[1] + ncz * n[2] >= min_normal_cos);
       inliers -= inlier;
       // r(ξ) for world_from_live · Exp(ξ), ξ = [ω; v] in the live camera frame:
@@ -247,8 +258,10 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
         const Float8 jac[6] = {p[1] * cz - p[2] * cy, p[2] * cx - p[0] * cz,
                                p[0] * cy - p[1] * cx, cx, cy, cz};
         const Float8 rs = r * s;
-        acc.Add(jac, rs, Masked8(HuberWeight8(rs, huber), inlier));
-        sum_r_sq += r * r;
+        acc.Add(jac, rs, Masked8(HuberWeight8(rs, huber_lane), inlier));
+        // In near-range metres (huber / huber_lane: exactly 1 with the gate off).
+        const Float8 r_near = r * (huber / huber_lane);
+        sum_r_sq += r_near * r_near;
       }
       if (live_intensity == nullptr) continue;
       // Photometric residual of each pair: the model's grey level, bilinear at the projected
@@ -285,7 +298,7 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       const Float8 ri = Masked8(lambda * (model_i - live_i), in_patch);
       const Float8 jac[6] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
                              p[0] * gcy - p[1] * gcx, gcx, gcy, gcz};
-      acc.Add(jac, ri, Masked8(HuberWeight8(ri, huber), in_patch));
+      acc.Add(jac, ri, Masked8(HuberWeight8(ri, Splat8(huber)), in_patch));
     }
     int k = 0;
     for (int a = 0; a < 6; ++a) {
@@ -432,6 +445,18 @@ std::string IcpOptions::Check() const {
     return Fail("max_held_directions", max_held_directions, "in [0, 5]");
   }
   if (!(max_residual_m > 0)) return Fail("max_residual_m", max_residual_m, "> 0 m");
+  if (!(noise_gate_sigmas >= 0 && noise_gate_sigmas <= 10)) {
+    return Fail("noise_gate_sigmas", noise_gate_sigmas, "in [0, 10]");
+  }
+  if (!(depth_noise.base_m >= 0) || !std::isfinite(depth_noise.base_m)) {
+    return Fail("depth_noise.base_m", depth_noise.base_m, ">= 0 m and finite");
+  }
+  if (!(depth_noise.quadratic_per_m >= 0) || !std::isfinite(depth_noise.quadratic_per_m)) {
+    return Fail("depth_noise.quadratic_per_m", depth_noise.quadratic_per_m, ">= 0 1/m and finite");
+  }
+  if (!(depth_noise.reference_m >= 0) || !std::isfinite(depth_noise.reference_m)) {
+    return Fail("depth_noise.reference_m", depth_noise.reference_m, ">= 0 m and finite");
+  }
   if (!(max_jump_m > 0)) return Fail("max_jump_m", max_jump_m, "> 0 m");
   if (!(max_jump_deg > 0)) return Fail("max_jump_deg", max_jump_deg, "> 0 degrees");
   if (!(photometric_weight >= 0 && photometric_weight <= 1)) {
@@ -559,6 +584,10 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
     pass.min_normal_cos = min_normal_cos;
     pass.huber = static_cast<float>(options.huber_m);
     pass.noise_reference_depth = static_cast<float>(options.noise_reference_depth_m);
+    pass.noise_gate_sigmas = static_cast<float>(options.noise_gate_sigmas);
+    pass.noise_base = static_cast<float>(options.depth_noise.base_m);
+    pass.noise_quadratic = static_cast<float>(options.depth_noise.quadratic_per_m);
+    pass.noise_reference = static_cast<float>(options.depth_noise.reference_m);
     // Photometric term: needs grey levels on both sides.
     std::vector<float> model_intensity;
     const cv::Mat& live_intensity = live.levels[l].intensity;

@@ -22,6 +22,7 @@
 
 #include "core/transform.h"
 #include "reconstruct/camera_maps.h"
+#include "reconstruct/depth_noise.h"
 
 namespace hw::reconstruct {
 
@@ -44,9 +45,10 @@ struct TsdfOptions {
   // `equipment` sweep with the true depth field, ATE 13.4 → 5.0 mm, surface error (median)
   // 23 → 5 mm; the `building` 4 s sweep (walls at 3–4 m) 17.2 → 10.4 mm. 0: the fixed band.
   double truncation_noise_sigmas = 3;    // >= 0
-  double noise_base_m = 0.0012;          // σ_z at noise_reference_m, m, >= 0
-  double noise_quadratic_per_m = 0.0019; // growth of σ_z with (z − noise_reference_m)², 1/m, >= 0
-  double noise_reference_m = 0.4;        // depth of least noise, m, >= 0
+  double noise_base_m = DepthNoiseModel{}.base_m;                   // σ_z at noise_reference_m, m, >= 0
+  double noise_quadratic_per_m = DepthNoiseModel{}.quadratic_per_m; // growth of σ_z with (z − noise_reference_m)², 1/m, >= 0
+  double noise_reference_m = DepthNoiseModel{}.reference_m;         // depth of least noise, m, >= 0
+  DepthNoiseModel Noise() const { return {noise_base_m, noise_quadratic_per_m, noise_reference_m}; }
   // Each observation adds weight 1; the sum is capped here, so a long-observed surface still
   // follows a changed one (a moving person, a door) after about this many frames. In [1, 65535].
   double max_weight = 64;

@@ -73,7 +73,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
                           "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
                           "\"interval\": 8", "\"reuse_max_motion_m\": 0.04", "\"reuse_max_motion_deg\": 2.5",
-                          "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019",
+                          "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019", "\"noise_gate_sigmas\": 0",
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\""}) {
@@ -144,6 +144,18 @@ TEST(ReconstructCli, RigDepthCorrectionIsAppliedAndReported) {
       << r.output;
   EXPECT_NE(Read(out / "reconstruct.json").find("\"depth_correction\": \"rig.yaml, 5 x 4 nodes\""),
             std::string::npos);
+}
+
+// --icp-noise-gate reaches the tracker (tracked, not --poses), is said and recorded.
+TEST(ReconstructCli, IcpNoiseGateIsUsedAndReported) {
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() +
+                            " --voxel-size 0.01 --icp-noise-gate 3 --start-at-groundtruth");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("ICP gate and Huber threshold widened to 3 sigmas of the depth noise"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find(" 0 lost"), std::string::npos) << r.output;
+  EXPECT_NE(Read(out / "reconstruct.json").find("\"noise_gate_sigmas\": 3"), std::string::npos);
 }
 
 TEST(ReconstructCli, OutThatIsAFileIsOneLineAndExit1) {
@@ -272,6 +284,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                " --truncation-noise-sigmas -1");
   EXPECT_EQ(band.exit_code, 2) << band.output;
   EXPECT_NE(band.output.find("truncation_noise_sigmas"), std::string::npos) << band.output;
+  const Result gate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                               " --icp-noise-gate -1");
+  EXPECT_EQ(gate.exit_code, 2) << gate.output;
+  EXPECT_NE(gate.output.find("icp.noise_gate_sigmas"), std::string::npos) << gate.output;
   const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
