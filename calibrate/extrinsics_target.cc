@@ -717,8 +717,11 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
   cov_options.algorithm_type = ceres::SPARSE_QR;
   cov_options.num_threads = 2;
   ceres::Covariance covariance(cov_options);
-  const std::vector<std::pair<const double*, const double*>> blocks = {{thermal_params, thermal_params},
-                                                                        {rgb_params, rgb_params}};
+  std::vector<std::pair<const double*, const double*>> blocks = {{thermal_params, thermal_params},
+                                                                  {rgb_params, rgb_params}};
+  // The depth model's, where the last round left part of it free.
+  const bool depth_model_free = o.depth_model || estimate_affine;
+  if (depth_model_free) blocks.emplace_back(depth_model, depth_model);
   if (!covariance.Compute(blocks, problem.get())) {
     throw core::InputError(where, "the target-based extrinsics are not determined by these stills (degenerate "
                                   "configuration: vary the target's orientation and position)");
@@ -736,6 +739,11 @@ TargetExtrinsicsResult EstimateTargetExtrinsics(const core::Scan& scan, const co
     e.rms_residual = samples.empty() ? 0 : std::sqrt(sum / (2.0 * samples.size()));
     e.residual_unit = "px";
   };
+  if (depth_model_free) {
+    Eigen::Matrix<double, 4, 4, Eigen::RowMajor> c;
+    covariance.GetCovarianceBlock(depth_model, depth_model, c.data());
+    result.depth_model_covariance = c;
+  }
   fill(result.thermal, "thermal", thermal_ref, thermal_params, result.thermal_residuals);
   fill(result.rgb, "rgb", rgb_ref, rgb_params, result.rgb_residuals);
   // A σ of centimetres or degrees is no calibration: the stills leave a direction free and

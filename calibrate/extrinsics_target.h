@@ -169,6 +169,9 @@ struct TargetExtrinsicsResult {
   // The depth model [a, b, c_x, c_y] (1/m, TargetExtrinsicsOptions::depth_model) estimated
   // (b zero without options.depth_model; a, c_x, c_y zero without options.depth_affine).
   Eigen::Vector4d depth_model = Eigen::Vector4d::Zero();
+  // Its covariance (1/m²), the extrinsics and the still poses marginalised; rows and columns
+  // of the parts not estimated are zero.
+  Eigen::Matrix4d depth_model_covariance = Eigen::Matrix4d::Zero();
   double target_thickness_m = 0;        // target.yaml's plate thickness, modelled, m
   double depth_affine_sigma_per_m = 0;  // the prior σ used for a, c_x, c_y, 1/m (0: not estimated)
   // Apparent edge shift of the holes in thermal and colour, m (+: holes look larger).

@@ -186,7 +186,8 @@ struct RigItem {
   std::string part;
   std::function<double(const core::Rig&)> get;  // NaN when the rig lacks it
   // Whether the fixture check compares it with the truth: not the depth correction's size,
-  // whose affine part the wall cannot observe (the truth has one, the estimate none).
+  // whose affine part the wall cannot observe (the truth has one; the estimate has the
+  // plate's measure of its scale only when the extrinsics' stills determined it).
   bool compare_to_truth = true;
 };
 std::vector<RigItem> RigItems() {

@@ -36,6 +36,13 @@ struct ExtrinsicsCommandOptions {
   // accuracy goals of each method).
   double max_rotation_sigma_deg = 0;
   double max_translation_sigma_mm = 0;
+  // Method target, with a calibrated depth_correction in the rig: fold the affine part of
+  // the depth error measured on the plate (TargetExtrinsicsOptions::depth_affine: the depth
+  // scale and tilt no wall shows) into rig.yaml's depth_correction. false (--keep-depth-
+  // correction): the correction is written as read. Only terms the stills determine are
+  // folded (calibrate_extrinsics.cc); the bowl the plate also measures is not: the wall sees
+  // it, and better.
+  bool fold_depth_affine = true;
   calibrate::TargetExtrinsicsOptions target;  // method target
   calibrate::TargetlessOptions targetless;    // method targetless
   // Method targetless: world_from_depth of the scan (TUM, e.g. heatwave reconstruct's
@@ -51,7 +58,10 @@ struct ExtrinsicsCommandResult {
   std::vector<calibrate::ExtrinsicsEstimate> estimates;  // one per camera calibrated
   std::vector<std::string> notes;                      // method-specific summary lines
   core::Rig rig_in;   // the rig read (the scan's or --rig)
-  core::Rig rig_out;  // rig_in with the estimated extrinsics replaced
+  core::Rig rig_out;  // rig_in with the estimated extrinsics replaced (and the depth affine part folded)
+  // What rig_out's depth_correction gained of the plate's affine part (a, c_x, c_y), 1/m:
+  // the terms the stills measured (ExtrinsicsCommandOptions::fold_depth_affine), 0 others.
+  Eigen::Vector3d depth_affine_folded_per_m = Eigen::Vector3d::Zero();
   std::vector<calibrate::QaCheck> checks;
   bool pass = false;
   std::vector<std::string> written;  // files, relative to out_folder

@@ -69,6 +69,17 @@ double DepthCorrection::RmsPerM() const {
   return std::sqrt(sum / static_cast<double>(offset_per_m.size()));
 }
 
+void DepthCorrection::AddAffine(double a_per_m, double c_x_per_m, double c_y_per_m) {
+  assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
+  for (int iy = 0; iy < ny; ++iy) {
+    const double y = y_range[0] + (y_range[1] - y_range[0]) * iy / (ny - 1);
+    for (int ix = 0; ix < nx; ++ix) {
+      const double x = x_range[0] + (x_range[1] - x_range[0]) * ix / (nx - 1);
+      offset_per_m[static_cast<size_t>(iy) * nx + ix] += a_per_m + c_x_per_m * x + c_y_per_m * y;
+    }
+  }
+}
+
 double DepthCorrection::OffsetAt(double x, double y) const {
   assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
   const Stencil st = StencilAt(x, y);

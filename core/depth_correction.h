@@ -49,6 +49,11 @@ struct DepthCorrection {
   double OffsetAt(double x, double y) const;
   // RMS of offset_per_m over the nodes, 1/m (0 for none): the field's size.
   double RmsPerM() const;
+  // Adds the affine field a + c_x·x + c_y·y (1/m; x, y normalised coordinates) to every
+  // node: exactly that field added to OffsetAt inside the grid (bilinear interpolation
+  // reproduces an affine function). The part of a depth error no wall shows, measured
+  // elsewhere (calibrate extrinsics' plate of known size), folded into the field.
+  void AddAffine(double a_per_m, double c_x_per_m, double c_y_per_m);
   // The corrected depth z / (1 − z·δ(x, y)), m; 0 for z <= 0 (no measurement) and for a
   // correction that would send the point to or beyond infinity (1 − z·δ <= 0.05).
   double Correct(double z_m, double x, double y) const;

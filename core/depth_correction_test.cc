@@ -26,13 +26,7 @@ CameraModel Kinect() {
 // A field linear in x and y is reproduced exactly by bilinear interpolation.
 DepthCorrection Planar(const CameraModel& camera, double a, double bx, double by) {
   DepthCorrection c = DepthCorrection::ZeroOver(camera, 5, 4);
-  for (int iy = 0; iy < c.ny; ++iy) {
-    for (int ix = 0; ix < c.nx; ++ix) {
-      const double x = c.x_range[0] + (c.x_range[1] - c.x_range[0]) * ix / (c.nx - 1);
-      const double y = c.y_range[0] + (c.y_range[1] - c.y_range[0]) * iy / (c.ny - 1);
-      c.offset_per_m[iy * c.nx + ix] = a + bx * x + by * y;
-    }
-  }
+  c.AddAffine(a, bx, by);
   return c;
 }
 
@@ -55,6 +49,21 @@ TEST(DepthCorrection, GridCoversTheImageAndInterpolatesBilinearly) {
   // Clamped beyond the border: the border's value.
   EXPECT_NEAR(c.OffsetAt(5.0, 0.0), c.OffsetAt(c.x_range[1], 0.0), 1e-15);
   EXPECT_NEAR(c.OffsetAt(0.0, -5.0), c.OffsetAt(0.0, c.y_range[0]), 1e-15);
+}
+
+// AddAffine on a field that is not affine: the field everywhere (between nodes too) gains
+// exactly the affine function; the nodes at the grid's corners gain its corner values.
+TEST(DepthCorrection, AddAffineAddsThatFieldEverywhere) {
+  DepthCorrection c = DepthCorrection::ZeroOver(Kinect(), 6, 5);
+  for (size_t k = 0; k < c.offset_per_m.size(); ++k) c.offset_per_m[k] = 0.001 * std::sin(1.7 * k);
+  const DepthCorrection before = c;
+  c.AddAffine(-0.0023, 0.0004, -0.0008);
+  for (const auto& [x, y] : {std::pair{0.0, 0.0}, {0.31, -0.2}, {-0.5, 0.37}, {c.x_range[0], c.y_range[1]}}) {
+    EXPECT_NEAR(c.OffsetAt(x, y) - before.OffsetAt(x, y), -0.0023 + 0.0004 * x - 0.0008 * y, 1e-15);
+  }
+  EXPECT_NEAR(c.offset_per_m.back() - before.offset_per_m.back(),
+              -0.0023 + 0.0004 * c.x_range[1] - 0.0008 * c.y_range[1], 1e-15);
+  EXPECT_EQ(c.Check(), "");
 }
 
 TEST(DepthCorrection, CorrectionInvertsAnInverseDepthOffset) {
