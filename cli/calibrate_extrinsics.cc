@@ -260,8 +260,15 @@ ExtrinsicsCommandResult CalibrateExtrinsics(const ExtrinsicsCommandOptions& o, b
       // 0.15 of the prior's), the tilts hardly (0.48, 0.51).
       const auto measured = [&](int k) { return sigma[k] <= t.depth_affine_sigma_per_m / 3; };
       const Eigen::Vector3d folded(measured(0) ? m[0] : 0, measured(2) ? m[2] : 0, measured(3) ? m[3] : 0);
-      r.rig_out.depth_correction->AddAffine(folded[0], folded[1], folded[2]);
-      if (const std::string bad = r.rig_out.depth_correction->Check(); !bad.empty()) {
+      core::DepthCorrection& correction = *r.rig_out.depth_correction;
+      correction.AddAffine(folded[0], folded[1], folded[2]);
+      // Recorded as measured (accumulating over runs: a second run measures what is left).
+      if (folded != Eigen::Vector3d::Zero()) {
+        std::array<double, 3> total = correction.plate_affine_per_m.value_or(std::array<double, 3>{0, 0, 0});
+        for (int i = 0; i < 3; ++i) total[i] += folded[i];
+        correction.plate_affine_per_m = total;
+      }
+      if (const std::string bad = correction.Check(); !bad.empty()) {
         throw core::InputError(o.scan, "the depth error's affine part measured on the plate does not fit rig.yaml's "
                                        "depth_correction (" + bad + "): check the depth camera and target.yaml");
       }

@@ -240,6 +240,9 @@ std::string ReconstructCommandOptions::Check() const {
   if (out_folder.empty()) return "--out: must be given";
   if (std::string m = reconstruction.Check(); !m.empty()) return m;
   if (std::string m = thermal_fusion.Check(); !m.empty()) return "thermal." + m;
+  if (icp_noise_gate_sigmas && !(*icp_noise_gate_sigmas >= 0 && *icp_noise_gate_sigmas <= 10)) {
+    return core::OptionFail("icp_noise_gate_sigmas", *icp_noise_gate_sigmas, "in [0, 10]");
+  }
   if (emissivity_from_truth && !emissivity_path.empty()) {
     return "--emissivity-from-truth: cannot be combined with --emissivity";
   }
@@ -268,8 +271,12 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   scan_options.rig_path = options.rig_path;
   const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
   ReconstructCommandOptions resolved = options;
-  // One depth-noise model: ICP's gate uses the TSDF band's.
+  // One depth-noise model: ICP's gate uses the TSDF band's. The gate pays only where far
+  // depth is free of systematic error (IcpOptions::noise_gate_sigmas).
   resolved.reconstruction.icp.depth_noise = options.reconstruction.tsdf.Noise();
+  const bool scale_measured = scan.rig().depth_correction && scan.rig().depth_correction->ScaleMeasured();
+  resolved.reconstruction.icp.noise_gate_sigmas = options.icp_noise_gate_sigmas.value_or(
+      scale_measured ? ReconstructCommandOptions::kNoiseGateWithMeasuredScale : 0.0);
   if (!options.poses_path.empty()) {
     resolved.scan.poses = core::ReadTumTrajectory(options.poses_path);
     if (resolved.scan.poses->empty()) throw core::InputError(options.poses_path, "holds no pose");
@@ -340,7 +347,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.unposed = run.unposed_frames;
   r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
   if (const auto& c = scan.rig().depth_correction) {
-    r.depth_correction = core::StringPrintf("%d x %d nodes", c->nx, c->ny);
+    r.depth_correction = core::StringPrintf("%d x %d nodes%s", c->nx, c->ny,
+                                            c->ScaleMeasured() ? ", depth scale measured on the plate" : "");
   }
   r.noise_gate_sigmas = options.reconstruction.icp.noise_gate_sigmas;
   for (const FrameRecord& f : reconstruction.frames()) {
@@ -543,10 +551,10 @@ int RunReconstruct(int argc, char** argv) {
                  "ICP residuals of a point at depth z count (this / z)x: depth noise grows with distance, m "
                  "(0: all alike; helps scenes at 1-2 m, hurts at 3-4 m: README)")
       ->capture_default_str();
-  app.add_option("--icp-noise-gate", r.icp.noise_gate_sigmas,
+  app.add_option("--icp-noise-gate", o.icp_noise_gate_sigmas,
                  "pair ICP points up to this many sigmas of the depth noise apart where that exceeds the gate, "
-                 "Huber threshold alike (0: fixed gate; helps only with an exact depth correction: README)")
-      ->capture_default_str();
+                 "Huber threshold alike (0: fixed gate); default 3 when rig.yaml's depth_correction includes the "
+                 "depth scale measured on the extrinsics plate, else 0 (it hurts with systematic depth error: README)");
   app.add_option("--raycast-level", r.raycast_level,
                  "track against the model raycast at this pyramid level (0 full, 1 half resolution)")
       ->capture_default_str();

@@ -25,6 +25,13 @@ struct ReconstructCommandOptions {
   std::filesystem::path poses_path;  // TUM trajectory to fuse along instead of tracking
   bool overwrite = false;          // replace an earlier reconstruction's files in out_folder
   reconstruct::ReconstructionOptions reconstruction;
+  // ICP's depth-noise gate (IcpOptions::noise_gate_sigmas), --icp-noise-gate. Unset:
+  // kNoiseGateWithMeasuredScale when rig.yaml's depth_correction includes a depth scale
+  // measured on the extrinsics plate (DepthCorrection::ScaleMeasured: far depth free of
+  // systematic error), else 0. RunReconstruction resolves it into reconstruction.icp, with
+  // the TSDF's depth-noise model.
+  std::optional<double> icp_noise_gate_sigmas;
+  static constexpr double kNoiseGateWithMeasuredScale = 3;
   reconstruct::ScanReconstructionOptions scan;
   // Thermal fusion, when the scan has a thermal stream and thermal is true.
   bool thermal = true;

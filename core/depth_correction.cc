@@ -46,6 +46,15 @@ std::string DepthCorrection::Check() const {
                           kMaxAbsOffsetPerM, offset_per_m[i]);
     }
   }
+  if (plate_affine_per_m) {
+    for (int i = 0; i < 3; ++i) {
+      const double v = (*plate_affine_per_m)[i];
+      if (!std::isfinite(v) || std::abs(v) > kMaxAbsOffsetPerM) {
+        return StringPrintf("plate_affine_per_m[%d]: must be finite with |value| <= %g 1/m, got %g", i,
+                            kMaxAbsOffsetPerM, v);
+      }
+    }
+  }
   return "";
 }
 

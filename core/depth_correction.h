@@ -12,6 +12,7 @@
 // [x_range] × [y_range] and interpolated bilinearly (clamped beyond the grid's border).
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,13 @@ struct DepthCorrection {
   std::array<double, 2> x_range = {0, 0};  // x/z of the first and last column of nodes, lo < hi
   std::array<double, 2> y_range = {0, 0};  // y/z of the first and last row of nodes, lo < hi
   std::vector<double> offset_per_m;        // δ at node (ix, iy) = [iy·nx + ix], 1/m
+  // The affine part (a, c_x, c_y; 1/m) of the field that was measured by what sees it — the
+  // plate of `calibrate extrinsics`, folded in with AddAffine — and is included in
+  // offset_per_m; a term not measured is 0. Absent: the field's affine part is not measured
+  // (a wall-only calibration, whose fit has none). rig.yaml key `plate_affine_per_m`.
+  // `reconstruct` reads a measured scale (a ≠ 0) as depth free of systematic error.
+  std::optional<std::array<double, 3>> plate_affine_per_m;
+  bool ScaleMeasured() const { return plate_affine_per_m && (*plate_affine_per_m)[0] != 0; }
 
   // "" when valid (node counts and ranges as above, |range| <= 10, nx·ny finite offsets of
   // |δ| <= 1 /m), else one message naming the field, value and constraint.

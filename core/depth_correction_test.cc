@@ -110,6 +110,17 @@ TEST(DepthCorrection, RigYamlRoundTripAndErrors) {
   EXPECT_EQ(back.depth_correction->x_range, rig.depth_correction->x_range);
   EXPECT_EQ(back.depth_correction->y_range, rig.depth_correction->y_range);
   EXPECT_EQ(back.depth_correction->offset_per_m, rig.depth_correction->offset_per_m);
+  EXPECT_FALSE(back.depth_correction->plate_affine_per_m.has_value());
+  EXPECT_FALSE(back.depth_correction->ScaleMeasured());
+  // The plate's affine part, when one was folded in, reads back exactly.
+  rig.depth_correction->plate_affine_per_m = std::array<double, 3>{-0.0023397988360435128, 0, 1.0 / 3e4};
+  const Rig with_plate = ParseRig(FormatRig(rig), "rig.yaml");
+  ASSERT_TRUE(with_plate.depth_correction->plate_affine_per_m.has_value());
+  EXPECT_EQ(*with_plate.depth_correction->plate_affine_per_m, *rig.depth_correction->plate_affine_per_m);
+  EXPECT_TRUE(with_plate.depth_correction->ScaleMeasured());
+  rig.depth_correction->plate_affine_per_m = std::array<double, 3>{0, 0.001, 0};  // tilts only
+  EXPECT_FALSE(ParseRig(FormatRig(rig), "rig.yaml").depth_correction->ScaleMeasured());
+  rig.depth_correction->plate_affine_per_m.reset();
   // Without the block, a rig reads back without one.
   rig.depth_correction.reset();
   EXPECT_FALSE(ParseRig(FormatRig(rig), "rig.yaml").depth_correction.has_value());
@@ -133,6 +144,14 @@ TEST(DepthCorrection, RigYamlRoundTripAndErrors) {
   EXPECT_NE(error_of("depth_correction: {nx: 2, ny: 2, x_range: [1, 0], y_range: [0, 1], "
                      "offset_per_m: [0, 0, 0, 0]}\n")
                 .find("depth_correction.x_range: must be [lo, hi]"),
+            std::string::npos);
+  EXPECT_NE(error_of("depth_correction: {nx: 2, ny: 2, x_range: [0, 1], y_range: [0, 1], "
+                     "offset_per_m: [0, 0, 0, 0], plate_affine_per_m: [0, 0]}\n")
+                .find("depth_correction.plate_affine_per_m"),
+            std::string::npos);
+  EXPECT_NE(error_of("depth_correction: {nx: 2, ny: 2, x_range: [0, 1], y_range: [0, 1], "
+                     "offset_per_m: [0, 0, 0, 0], plate_affine_per_m: [0, 3, 0]}\n")
+                .find("depth_correction.plate_affine_per_m[1]: must be finite with |value| <= 1"),
             std::string::npos);
   EXPECT_NE(error_of("depth_correction: {nx: 2, ny: 2, x_range: [0, 1], y_range: [0, 1], "
                      "offset_per_m: [0, 0, 2, 0]}\n")

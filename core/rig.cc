@@ -114,7 +114,7 @@ Rigid3d ParseTransform(const YamlReader& reader, const YAML::Node& node, const s
 DepthCorrection ParseDepthCorrection(const YamlReader& reader, const YAML::Node& node,
                                      const std::string& key) {
   const Fields fields =
-      reader.Mapping(node, key, {"nx", "ny", "x_range", "y_range", "offset_per_m"});
+      reader.Mapping(node, key, {"nx", "ny", "x_range", "y_range", "offset_per_m", "plate_affine_per_m"});
   DepthCorrection correction;
   correction.nx = reader.Integer(fields.Required("nx"), fields.Path("nx"));
   correction.ny = reader.Integer(fields.Required("ny"), fields.Path("ny"));
@@ -126,6 +126,11 @@ DepthCorrection ParseDepthCorrection(const YamlReader& reader, const YAML::Node&
   correction.y_range = {y_range[0], y_range[1]};
   correction.offset_per_m =
       reader.NumberList(fields.Required("offset_per_m"), fields.Path("offset_per_m"));
+  if (fields.Has("plate_affine_per_m")) {
+    const std::vector<double> a =
+        reader.NumberList(fields.Required("plate_affine_per_m"), fields.Path("plate_affine_per_m"), 3);
+    correction.plate_affine_per_m = std::array<double, 3>{a[0], a[1], a[2]};
+  }
   if (const std::string problem = correction.Check(); !problem.empty()) fields.FailCheck(problem);
   return correction;
 }
@@ -413,6 +418,10 @@ std::string FormatRig(const Rig& rig) {
     out += "  ny: " + std::to_string(c.ny) + "\n";
     out += "  x_range: " + FormatYamlList(c.x_range.data(), 2) + "\n";
     out += "  y_range: " + FormatYamlList(c.y_range.data(), 2) + "\n";
+    if (c.plate_affine_per_m) {
+      out += "  plate_affine_per_m: " + FormatYamlList(c.plate_affine_per_m->data(), 3) +
+             "   # a, c_x, c_y (1/m) measured on the extrinsics plate, included below\n";
+    }
     out += "  offset_per_m:   # 1/m, row-major (ny rows of nx)\n";
     out += "    [";
     for (int iy = 0; iy < c.ny; ++iy) {

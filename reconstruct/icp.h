@@ -50,7 +50,10 @@ struct IcpOptions {
   // `equipment` ATE 5.04 → 3.27 mm, 4 s `building` 2.27 → 1.59 mm; corrected with the field
   // `heatwave calibrate depth` estimates (its depth scale unobservable): 4.16 → 4.57 and
   // 1.82 → 2.36 mm; uncorrected: 41.9 → 58.3 and 10.4 → 12.3 mm — far points then carry
-  // tens of mm of distortion that a wider gate lets in. Hence off. In [0, 10].
+  // tens of mm of distortion that a wider gate lets in; with the depth scale measured on the
+  // extrinsics plate folded in as well: 3.69 → 3.06 and 1.73 → 1.55 mm. Off here;
+  // `heatwave reconstruct` sets 3 when rig.yaml's depth_correction includes that scale
+  // (core::DepthCorrection::ScaleMeasured). In [0, 10].
   double noise_gate_sigmas = 0;
   DepthNoiseModel depth_noise;  // σ_z(z) for the gate (the pipeline passes the TSDF's)
   // Stop a level when the update is smaller than this (rad for rotation, m for translation).

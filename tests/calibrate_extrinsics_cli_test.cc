@@ -139,6 +139,9 @@ TEST(CalibrateExtrinsicsCli, TheDepthScaleMeasuredOnThePlateIsFoldedIntoTheCorre
   hw::core::DepthCorrection expected = *start.depth_correction;
   expected.AddAffine(folded[0], folded[1], folded[2]);
   ASSERT_TRUE(solved.depth_correction);
+  // Recorded as measured: rig.yaml's plate_affine_per_m (reconstruct's default gate reads it).
+  ASSERT_TRUE(solved.depth_correction->plate_affine_per_m);
+  EXPECT_EQ(Eigen::Vector3d(solved.depth_correction->plate_affine_per_m->data()), folded);
   for (size_t k = 0; k < expected.offset_per_m.size(); ++k) {
     EXPECT_NEAR(solved.depth_correction->offset_per_m[k], expected.offset_per_m[k], 1e-12) << k;
   }
@@ -159,6 +162,7 @@ TEST(CalibrateExtrinsicsCli, TheDepthScaleMeasuredOnThePlateIsFoldedIntoTheCorre
   EXPECT_EQ(kept.depth_affine_folded_per_m, Eigen::Vector3d::Zero());
   EXPECT_EQ(hw::core::ReadRig(o.out_folder / "rig.yaml").depth_correction->offset_per_m,
             start.depth_correction->offset_per_m);
+  EXPECT_FALSE(hw::core::ReadRig(o.out_folder / "rig.yaml").depth_correction->plate_affine_per_m);
 
   o.out_folder = folder / "default-prior";
   o.fold_depth_affine = true;

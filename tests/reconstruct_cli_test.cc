@@ -144,6 +144,19 @@ TEST(ReconstructCli, RigDepthCorrectionIsAppliedAndReported) {
       << r.output;
   EXPECT_NE(Read(out / "reconstruct.json").find("\"depth_correction\": \"rig.yaml, 5 x 4 nodes\""),
             std::string::npos);
+  // A wall-only correction leaves ICP's gate fixed; one that includes the depth scale
+  // measured on the extrinsics plate widens it to 3 sigmas of the noise by default.
+  EXPECT_EQ(r.output.find("ICP gate and Huber threshold widened"), std::string::npos) << r.output;
+  rig.depth_correction->plate_affine_per_m = std::array<double, 3>{-0.002, 0, 0};
+  hw::core::WriteRig(rig_path, rig);
+  const fs::path out_plate = FreshPath("out");
+  const Result plate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out_plate.string() +
+                                " --voxel-size 0.01 --rig " + rig_path.string() + " --poses " +
+                                (SmoothScan() / "groundtruth.txt").string());
+  ASSERT_EQ(plate.exit_code, 0) << plate.output;
+  EXPECT_NE(plate.output.find("(5 x 4 nodes, depth scale measured on the plate)"), std::string::npos) << plate.output;
+  EXPECT_NE(plate.output.find("ICP gate and Huber threshold widened to 3 sigmas"), std::string::npos) << plate.output;
+  EXPECT_NE(Read(out_plate / "reconstruct.json").find("\"noise_gate_sigmas\": 3"), std::string::npos);
 }
 
 // --icp-noise-gate reaches the tracker (tracked, not --poses), is said and recorded.
@@ -287,7 +300,7 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
   const Result gate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                " --icp-noise-gate -1");
   EXPECT_EQ(gate.exit_code, 2) << gate.output;
-  EXPECT_NE(gate.output.find("icp.noise_gate_sigmas"), std::string::npos) << gate.output;
+  EXPECT_NE(gate.output.find("noise_gate_sigmas"), std::string::npos) << gate.output;
   const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
