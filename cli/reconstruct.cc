@@ -473,7 +473,7 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   if (!r.depth_correction.empty()) {
     out += "Depth      corrected with rig.yaml's depth_correction (" + r.depth_correction + ")\n";
   }
-  if (r.noise_gate_sigmas > 0) {
+  if (r.noise_gate_sigmas > 0 && r.tracked > 0) {  // (fusing along given poses tracks nothing)
     out += core::StringPrintf("Tracking   ICP gate and Huber threshold widened to %g sigmas of the depth noise "
                               "where wider (--icp-noise-gate)\n", r.noise_gate_sigmas);
   }

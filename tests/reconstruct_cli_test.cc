@@ -146,13 +146,12 @@ TEST(ReconstructCli, RigDepthCorrectionIsAppliedAndReported) {
             std::string::npos);
   // A wall-only correction leaves ICP's gate fixed; one that includes the depth scale
   // measured on the extrinsics plate widens it to 3 sigmas of the noise by default.
-  EXPECT_EQ(r.output.find("ICP gate and Huber threshold widened"), std::string::npos) << r.output;
+  EXPECT_NE(Read(out / "reconstruct.json").find("\"noise_gate_sigmas\": 0"), std::string::npos);
   rig.depth_correction->plate_affine_per_m = std::array<double, 3>{-0.002, 0, 0};
   hw::core::WriteRig(rig_path, rig);
   const fs::path out_plate = FreshPath("out");
   const Result plate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out_plate.string() +
-                                " --voxel-size 0.01 --rig " + rig_path.string() + " --poses " +
-                                (SmoothScan() / "groundtruth.txt").string());
+                                " --voxel-size 0.01 --start-at-groundtruth --rig " + rig_path.string());
   ASSERT_EQ(plate.exit_code, 0) << plate.output;
   EXPECT_NE(plate.output.find("(5 x 4 nodes, depth scale measured on the plate)"), std::string::npos) << plate.output;
   EXPECT_NE(plate.output.find("ICP gate and Huber threshold widened to 3 sigmas"), std::string::npos) << plate.output;
