@@ -51,9 +51,9 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
   tsdf.Number("voxel_size_m", r.tsdf.voxel_size_m)
       .Number("truncation_m", r.tsdf.truncation_m)
       .Number("truncation_noise_sigmas", r.tsdf.truncation_noise_sigmas)
-      .Number("noise_base_m", r.tsdf.noise_base_m)
-      .Number("noise_quadratic_per_m", r.tsdf.noise_quadratic_per_m)
-      .Number("noise_reference_m", r.tsdf.noise_reference_m)
+      .Number("noise_base_m", r.tsdf.noise.base_m)
+      .Number("noise_quadratic_per_m", r.tsdf.noise.quadratic_per_m)
+      .Number("noise_reference_m", r.tsdf.noise.reference_m)
       .Number("max_weight", r.tsdf.max_weight);
   depth.Int("bilateral_radius_px", r.depth.bilateral_radius_px)
       .Number("bilateral_sigma_px", r.depth.bilateral_sigma_px)
@@ -273,7 +273,7 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   ReconstructCommandOptions resolved = options;
   // One depth-noise model: ICP's gate uses the TSDF band's. The gate pays only where far
   // depth is free of systematic error (IcpOptions::noise_gate_sigmas).
-  resolved.reconstruction.icp.depth_noise = options.reconstruction.tsdf.Noise();
+  resolved.reconstruction.icp.depth_noise = options.reconstruction.tsdf.noise;
   const bool scale_measured = scan.rig().depth_correction && scan.rig().depth_correction->ScaleMeasured();
   resolved.reconstruction.icp.noise_gate_sigmas = options.icp_noise_gate_sigmas.value_or(
       scale_measured ? ReconstructCommandOptions::kNoiseGateWithMeasuredScale : 0.0);

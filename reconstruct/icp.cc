@@ -448,15 +448,7 @@ std::string IcpOptions::Check() const {
   if (!(noise_gate_sigmas >= 0 && noise_gate_sigmas <= 10)) {
     return Fail("noise_gate_sigmas", noise_gate_sigmas, "in [0, 10]");
   }
-  if (!(depth_noise.base_m >= 0) || !std::isfinite(depth_noise.base_m)) {
-    return Fail("depth_noise.base_m", depth_noise.base_m, ">= 0 m and finite");
-  }
-  if (!(depth_noise.quadratic_per_m >= 0) || !std::isfinite(depth_noise.quadratic_per_m)) {
-    return Fail("depth_noise.quadratic_per_m", depth_noise.quadratic_per_m, ">= 0 1/m and finite");
-  }
-  if (!(depth_noise.reference_m >= 0) || !std::isfinite(depth_noise.reference_m)) {
-    return Fail("depth_noise.reference_m", depth_noise.reference_m, ">= 0 m and finite");
-  }
+  if (std::string m = depth_noise.Check(); !m.empty()) return "depth_noise." + m;
   if (!(max_jump_m > 0)) return Fail("max_jump_m", max_jump_m, "> 0 m");
   if (!(max_jump_deg > 0)) return Fail("max_jump_deg", max_jump_deg, "> 0 degrees");
   if (!(photometric_weight >= 0 && photometric_weight <= 1)) {

@@ -22,13 +22,7 @@ std::string TsdfOptions::Check() const {
   if (!(truncation_noise_sigmas >= 0) || !std::isfinite(truncation_noise_sigmas)) {
     return Fail("truncation_noise_sigmas", truncation_noise_sigmas, "finite and >= 0");
   }
-  if (!(noise_base_m >= 0) || !std::isfinite(noise_base_m)) return Fail("noise_base_m", noise_base_m, "finite and >= 0 m");
-  if (!(noise_quadratic_per_m >= 0) || !std::isfinite(noise_quadratic_per_m)) {
-    return Fail("noise_quadratic_per_m", noise_quadratic_per_m, "finite and >= 0 1/m");
-  }
-  if (!(noise_reference_m >= 0) || !std::isfinite(noise_reference_m)) {
-    return Fail("noise_reference_m", noise_reference_m, "finite and >= 0 m");
-  }
+  if (std::string m = noise.Check(); !m.empty()) return "noise." + m;
   if (!InRange(max_weight, 1, 65535)) return Fail("max_weight", max_weight, "in [1, 65535]");
   if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) return Fail("min_depth_m", min_depth_m, ">= 0 m");
   if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {

@@ -34,7 +34,7 @@ struct TsdfOptions {
   double truncation_m = 0.02;
   // The band widens where the depth sensor's noise outgrows it: a measurement at depth z is
   // fused over ±max(truncation_m, truncation_noise_sigmas · σ_z(z)) (TruncationAt), with
-  // the axial noise σ_z(z) = noise_base_m + noise_quadratic_per_m · (z − noise_reference_m)²
+  // the axial noise σ_z(z) = noise.base_m + noise.quadratic_per_m · (z − noise.reference_m)²
   // of a structured-light sensor (Nguyen, Izadi & Lovell 2012, fitted on a Kinect; the
   // defaults are theirs: 6 mm at 2 m, 14 mm at 3 m, 26 mm at 4 m). A band narrower than the
   // noise clips it unevenly — a voxel on the surface keeps every reading in front (clipped
@@ -45,10 +45,7 @@ struct TsdfOptions {
   // `equipment` sweep with the true depth field, ATE 13.4 → 5.0 mm, surface error (median)
   // 23 → 5 mm; the `building` 4 s sweep (walls at 3–4 m) 17.2 → 10.4 mm. 0: the fixed band.
   double truncation_noise_sigmas = 3;    // >= 0
-  double noise_base_m = DepthNoiseModel{}.base_m;                   // σ_z at noise_reference_m, m, >= 0
-  double noise_quadratic_per_m = DepthNoiseModel{}.quadratic_per_m; // growth of σ_z with (z − noise_reference_m)², 1/m, >= 0
-  double noise_reference_m = DepthNoiseModel{}.reference_m;         // depth of least noise, m, >= 0
-  DepthNoiseModel Noise() const { return {noise_base_m, noise_quadratic_per_m, noise_reference_m}; }
+  DepthNoiseModel noise;  // σ_z(z), m (depth_noise.h); ICP's gate uses the same model
   // Each observation adds weight 1; the sum is capped here, so a long-observed surface still
   // follows a changed one (a moving person, a door) after about this many frames. In [1, 65535].
   double max_weight = 64;
@@ -72,8 +69,8 @@ struct TsdfOptions {
   };
   NoiseBand Band() const {
     return {static_cast<float>(truncation_m), static_cast<float>(truncation_noise_sigmas),
-            static_cast<float>(noise_base_m), static_cast<float>(noise_quadratic_per_m),
-            static_cast<float>(noise_reference_m)};
+            static_cast<float>(noise.base_m), static_cast<float>(noise.quadratic_per_m),
+            static_cast<float>(noise.reference_m)};
   }
   float TruncationAt(float depth_m) const { return Band().At(depth_m); }
 };

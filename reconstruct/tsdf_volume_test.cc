@@ -198,17 +198,25 @@ TEST(TsdfOptions, TheBandFollowsTheDepthNoiseWhereItIsWider) {
   EXPECT_NEAR(o.TruncationAt(4.0f), 3 * (0.0012 + 0.0019 * 3.6 * 3.6), 1e-6);
   o.truncation_noise_sigmas = 0;
   EXPECT_FLOAT_EQ(o.TruncationAt(4.0f), 0.02f);
-  for (auto field : {&TsdfOptions::truncation_noise_sigmas, &TsdfOptions::noise_base_m,
-                     &TsdfOptions::noise_quadratic_per_m, &TsdfOptions::noise_reference_m}) {
+  {
     TsdfOptions bad;
-    bad.*field = -0.1;
-    EXPECT_NE(bad.Check(), "");
-    bad.*field = std::numeric_limits<double>::infinity();
-    EXPECT_NE(bad.Check(), "");
+    bad.truncation_noise_sigmas = -0.1;
+    EXPECT_NE(bad.Check().find("truncation_noise_sigmas"), std::string::npos);
+    bad.truncation_noise_sigmas = std::numeric_limits<double>::infinity();
+    EXPECT_NE(bad.Check().find("truncation_noise_sigmas"), std::string::npos);
   }
-  TsdfOptions bad;
-  bad.noise_quadratic_per_m = -1;
-  EXPECT_NE(bad.Check().find("noise_quadratic_per_m"), std::string::npos);
+  // The noise model's own check, named through the field that holds it.
+  for (auto [field, name] : {std::pair{&DepthNoiseModel::base_m, "noise.base_m"},
+                             std::pair{&DepthNoiseModel::quadratic_per_m, "noise.quadratic_per_m"},
+                             std::pair{&DepthNoiseModel::reference_m, "noise.reference_m"}}) {
+    TsdfOptions bad;
+    bad.noise.*field = -0.1;
+    EXPECT_NE(bad.Check().find(name), std::string::npos) << name;
+    bad.noise.*field = std::numeric_limits<double>::infinity();
+    EXPECT_NE(bad.Check().find(name), std::string::npos) << name;
+    bad.noise.*field = 0;
+    EXPECT_EQ(bad.Check(), "") << name;
+  }
 }
 
 // A far frontal plane seen with depth noise about as wide as the fixed band: each voxel on
@@ -581,7 +589,7 @@ TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
 TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithTheNoiseBand) {
   if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
   TsdfOptions options = SmallOptions(2);
-  options.noise_quadratic_per_m = 0.05;
+  options.noise.quadratic_per_m = 0.05;
   ASSERT_GT(options.TruncationAt(1.0f), 0.05f);
   ExpectSimdWritesTheScalarBits(options);
 }
