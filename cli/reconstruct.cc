@@ -83,8 +83,13 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg)
       .Number("reuse_max_motion_m", r.reuse_max_motion_m)
       .Number("reuse_max_motion_deg", r.reuse_max_motion_deg);
-  JsonObject dynamic;
+  JsonObject dynamic, keyframes;
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
+  keyframes.Int("candidates", r.keyframes.candidates)
+      .Number("min_distance_m", r.keyframes.min_distance_m)
+      .Number("min_angle_deg", r.keyframes.min_angle_deg)
+      .Int("descriptor_width", r.keyframes.descriptor_width)
+      .Number("max_distance", r.keyframes.max_distance);
   mesh.Number("min_weight", r.mesh.min_weight)
       .Int("min_component_triangles", r.mesh.min_component_triangles)
       .Number("min_component_area_fraction", r.mesh.min_component_area_fraction);
@@ -105,6 +110,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Add("icp", icp.str())
       .Add("raycast", raycast.str())
       .Add("dynamic", dynamic.str())
+      .Add("keyframes", keyframes.str())
       .Add("mesh", mesh.str());
   return all.str();
 }
@@ -128,7 +134,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Number("residual_rms_m", f.residual_rms_m)
         .Number("condition", f.condition)
         .Int("held_directions", f.held_directions)
-        .String("icp_start", f.from_last_pose ? "last_pose" : "prediction")
+        .String("icp_start", f.keyframe >= 0 ? "keyframe" : f.from_last_pose ? "last_pose" : "prediction")
+        .Int("keyframe", f.keyframe)
         .Bool("widened_gate", f.widened_gate)
         .Int("iterations", f.iterations)
         .Number("correction_m", f.correction_m)
@@ -162,6 +169,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
       .Int("posed", r.posed).Int("unposed", r.unposed).Int("held", r.held)
       .Int("widened", r.widened)
+      .Int("keyframes", r.keyframes)
+      .Int("recovered_from_keyframe", r.recovered_from_keyframe)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured)
       .Int("integrated", r.integrated)
@@ -345,6 +354,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.process_seconds = run.process_seconds;
   r.missing = run.missing_frames;
   r.unposed = run.unposed_frames;
+  r.keyframes = reconstruction.keyframes().size();
   r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
   if (const auto& c = scan.rig().depth_correction) {
     r.depth_correction = core::StringPrintf("%d x %d nodes%s", c->nx, c->ny,
@@ -361,6 +371,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.coloured += f.coloured;
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
+    r.recovered_from_keyframe += f.status == FrameStatus::kRecovered && f.keyframe >= 0;
     r.held += f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.widened += f.status == FrameStatus::kTracked && f.widened_gate;
@@ -465,6 +476,11 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   if (r.widened > 0) {
     out += core::StringPrintf("Tracking   %d frames aligned only on the widened association gate "
                               "(no velocity yet, or more motion than the gate)\n", r.widened);
+  }
+  if (r.recovered_from_keyframe > 0) {
+    out += core::StringPrintf("Tracking   %d of the %d recovered frames relocalised from a keyframe's pose "
+                              "(%d keyframes kept; --relocalisation-candidates)\n",
+                              r.recovered_from_keyframe, r.recovered, r.keyframes);
   }
   if (r.held > 0) {
     out += core::StringPrintf("Tracking   %d frames with directions the geometry left free held at the "
@@ -579,6 +595,14 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--dynamic-fraction", r.dynamic.margin_fraction,
                  "the same margin as a fraction of the pixel's depth, [0, 1)")
       ->capture_default_str();
+  app.add_option("--relocalisation-candidates", r.keyframes.candidates,
+                 "after a loss that the last pose cannot bridge, try aligning from this many of the keyframes the "
+                 "frame looks most alike, [0, 10] (0: no keyframes)")
+      ->capture_default_str();
+  app.add_option("--keyframe-spacing", r.keyframes.min_distance_m,
+                 "a tracked frame farther than this from every keyframe becomes one, m")->capture_default_str();
+  app.add_option("--keyframe-spacing-deg", r.keyframes.min_angle_deg,
+                 "... or turned more than this from every keyframe, degrees")->capture_default_str();
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();
   app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();

@@ -41,9 +41,13 @@ double Ms(std::chrono::steady_clock::time_point since) {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
-// Largest time between a depth frame and the colour frame used with it, s: three frames at
-// 30 Hz (a dropped frame or two), short enough for the predicted motion to bridge.
-constexpr double kMaxColourGapS = 0.1;
+// Relocalisation also tries the constant-velocity extrapolation over a loss this short, s:
+// a hand held rig keeps its motion for a fraction of a second, not for seconds. Two fused
+// poses farther apart than this give no velocity at all.
+constexpr double kMaxExtrapolationS = 0.5;
+
+// Views cast and ICP runs that refine a relocalisation from a keyframe, at most.
+constexpr int kRefinementPasses = 3;
 
 }  // namespace
 
@@ -140,6 +144,7 @@ std::string ReconstructionOptions::Check() const {
   if (std::string m = e.raycast.Check(); !m.empty()) return "raycast." + m;
   if (std::string m = e.mesh.Check(); !m.empty()) return "mesh." + m;
   if (std::string m = e.dynamic.Check(); !m.empty()) return "dynamic." + m;
+  if (std::string m = keyframes.Check(); !m.empty()) return "keyframes." + m;
   return "";
 }
 
@@ -153,7 +158,8 @@ Reconstruction::Reconstruction(const core::Rig& rig, const ReconstructionOptions
     : rig_(rig),
       options_(Effective(options)),
       depth_undistorter_(rig.depth),
-      volume_(options_.tsdf) {
+      volume_(options_.tsdf),
+      keyframes_(options_.keyframes) {
   assert(options.Check().empty());
   assert(rig.Check().empty());
   if (rig_.rgb) rgb_undistorter_ = Undistorter(*rig_.rgb);
@@ -173,6 +179,9 @@ core::Rigid3d Reconstruction::PoseAt(double timestamp_s) const {
   const core::TimedPose& b = poses.back();
   if (poses.size() < 2) return b.world_from_sensor;
   const core::TimedPose& a = poses[poses.size() - 2];
+  // Across a long loss (a relocalisation from a keyframe) the two poses say nothing of the
+  // motion: a velocity from them sent the next frame's prediction 0.5 m astray.
+  if (b.timestamp_s - a.timestamp_s > kMaxExtrapolationS) return b.world_from_sensor;
   const double s = (timestamp_s - a.timestamp_s) / (b.timestamp_s - a.timestamp_s);
   return core::Interpolate(a.world_from_sensor, b.world_from_sensor, s);
 }
@@ -277,6 +286,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
   record.fused = true;
+  relocalisation_views_.clear();  // the volume changes now
   // After a frame tracked normally, the view may wait for raycast_interval fused frames;
   // after any other (the first, a recovery, a retry, held directions) it is cast at once.
   const bool normal = record.status == FrameStatus::kTracked && !record.widened_gate &&
@@ -288,6 +298,14 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   const bool due = model_ && (++fused_since_raycast_ >= options_.raycast_interval || ViewTooFar(world_from_depth));
   const bool raycast = frame.world_from_depth ? options_.dynamic.enabled() && (!model_ || due)
                                               : !model_ || !normal || due;
+  // A place not kept yet, seen by a frame whose pose is trusted (the first, or tracked
+  // normally: not a relocalised or held one), becomes a keyframe.
+  if (options_.keyframes.enabled() && (record.status == FrameStatus::kInitialised || normal) &&
+      keyframes_.IsNewPlace(world_from_depth)) {
+    const DepthLevel& coarsest = pyramid.levels.back();
+    keyframes_.Add(world_from_depth,
+                   DescribeFrame(coarsest.depth_m, coarsest.intensity, options_.keyframes.descriptor_width));
+  }
   // Without integrate_between_raycasts a frame that reuses the model view only tracks: its
   // depth would change a volume nobody looks at until the next raycast, whose frame fuses
   // nearly the same surfaces.
@@ -304,12 +322,6 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   return frames_.back();
 }
 
-namespace {
-// Relocalisation also tries the constant-velocity extrapolation over a loss this short, s:
-// a hand held rig keeps its motion for a fraction of a second, not for seconds.
-constexpr double kMaxExtrapolationS = 0.5;
-}  // namespace
-
 bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
                            core::Rigid3d& world_from_depth) {
   assert(model_.has_value());
@@ -323,6 +335,8 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     core::Rigid3d initial;
     IcpOptions icp;
     bool from_last_pose = false, widened = false;
+    int keyframe = -1;                    // started from this keyframe's pose ...
+    const ModelPyramid* model = nullptr;  // ... against this view (nullptr: model_)
   };
   std::vector<Attempt> attempts;
   IcpOptions wide = options_.icp;
@@ -379,9 +393,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   IcpResult best;
   const Attempt* best_attempt = &attempts.front();
   bool ok = false;
-  for (Attempt& attempt : attempts) {
+  const auto run = [&](Attempt& attempt, bool first_pass) {
     attempt.icp.max_condition = std::min(attempt.icp.max_condition, max_condition);
-    IcpResult result = AlignToModel(pyramid, *model_, attempt.initial, attempt.icp);
+    IcpResult result = AlignToModel(pyramid, attempt.model ? *attempt.model : *model_, attempt.initial, attempt.icp);
     if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
       result.status = IcpStatus::kLargeResidual;
     }
@@ -391,10 +405,81 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
         best_attempt = &attempt;
       }
       ok = true;
-      if (!lost_) break;  // tracking: the first success; relocalising: the best of all
-      continue;
+      return;
     }
-    if (&attempt == &attempts.front()) best = result;  // report the first failure
+    if (first_pass && &attempt == &attempts.front()) best = result;  // report the first failure
+  };
+  for (Attempt& attempt : attempts) {
+    run(attempt, true);
+    if (ok && !lost_) break;  // tracking: the first success; relocalising: the best of all
+  }
+  // Lost, and neither the last nor the extrapolated pose aligns the frame, or lost for longer
+  // than a hand-held rig keeps its motion: the rig may be anywhere it has been. Try the
+  // keyframes it looks most alike, each against the model seen from there (nothing is fused
+  // while lost, so a view cast once serves the loss), the most inliers winning as above —
+  // after a long loss ICP from the last pose, its jump limit grown with the time, can slide
+  // along a cabinet front onto a wrong fit (measured: 26 mm off from 0.55 m away).
+  std::vector<Attempt> global;
+  std::vector<ModelPyramid> refined_views;  // stable: reserved before the first is added
+  const double lost_for_s = timestamp_s - poses.back().timestamp_s;
+  if (lost_ && (!ok || lost_for_s > kMaxExtrapolationS) && options_.keyframes.enabled() && keyframes_.size() > 0) {
+    const DepthLevel& coarsest = pyramid.levels.back();
+    const KeyframeDescriptor query =
+        DescribeFrame(coarsest.depth_m, coarsest.intensity, options_.keyframes.descriptor_width);
+    const double near_rad = options_.keyframes.min_angle_deg / kRadToDeg;
+    // A long loss meets ever new candidates: keep the cache to about one frame's.
+    if (relocalisation_views_.size() > 3 * static_cast<size_t>(options_.keyframes.candidates)) {
+      relocalisation_views_.clear();
+    }
+    for (int k : keyframes_.MostAlike(query, keyframes_.size())) {
+      if (static_cast<int>(global.size()) == options_.keyframes.candidates) break;
+      // Where the last pose's attempt started already.
+      const core::PoseError from_last = core::ComparePoses(last, keyframes_.pose(k));
+      if (from_last.translation_m <= options_.keyframes.min_distance_m && from_last.rotation_rad <= near_rad) continue;
+      if (std::none_of(relocalisation_views_.begin(), relocalisation_views_.end(),
+                       [k](const auto& v) { return v.first == k; })) {
+        relocalisation_views_.emplace_back(k, CastModelView(keyframes_.pose(k), true));
+      }
+      global.push_back({keyframes_.pose(k), wide, false, true, k, nullptr});
+    }
+    // Each candidate that converges is refined against the model seen from where it
+    // converged, with the normal gates: from a keyframe's pose, centimetres off, the widened
+    // gate stops short (measured at 160×120: three keyframes' runs ended 1–4 cm apart, and
+    // the one with the most inliers was the farthest), and only views cast at each result
+    // make their inlier counts comparable.
+    refined_views.reserve(global.size() * kRefinementPasses);
+    for (Attempt& attempt : global) {
+      const ModelPyramid* view = nullptr;
+      for (const auto& [k, cached] : relocalisation_views_) {
+        if (k == attempt.keyframe) view = &cached;
+      }
+      attempt.icp.max_condition = std::min(attempt.icp.max_condition, max_condition);
+      IcpResult result = AlignToModel(pyramid, *view, attempt.initial, attempt.icp);
+      IcpOptions fine = options_.icp;
+      fine.max_condition = std::min(fine.max_condition, max_condition);
+      for (int pass = 0; pass < kRefinementPasses && result.status == IcpStatus::kOk; ++pass) {
+        ModelPyramid at_result = CastModelView(result.world_from_camera, true);
+        const IcpResult refined = AlignToModel(pyramid, at_result, result.world_from_camera, fine);
+        if (refined.status != IcpStatus::kOk) {
+          result.status = refined.status;
+          break;
+        }
+        const core::PoseError moved = core::ComparePoses(result.world_from_camera, refined.world_from_camera);
+        result = refined;
+        refined_views.push_back(std::move(at_result));
+        view = &refined_views.back();
+        if (moved.translation_m < 1e-3 && moved.rotation_rad * kRadToDeg < 0.05) break;
+      }
+      if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
+        result.status = IcpStatus::kLargeResidual;
+      }
+      attempt.model = view;
+      if (result.status == IcpStatus::kOk && (!ok || result.inliers > best.inliers)) {
+        best = result;
+        best_attempt = &attempt;
+        ok = true;
+      }
+    }
   }
   record.icp_status = best.status;
   record.inliers = best.inliers;
@@ -404,6 +489,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   record.held_directions = best.held_directions;
   record.from_last_pose = best_attempt->from_last_pose;
   record.widened_gate = best_attempt->widened;
+  record.keyframe = best_attempt->keyframe;
   record.iterations = best.iterations;
   const core::PoseError correction =
       core::ComparePoses(attempts.front().initial, best.world_from_camera);
@@ -411,6 +497,8 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   record.correction_deg = correction.rotation_rad * kRadToDeg;
   if (ok) {
     world_from_depth = best.world_from_camera;
+    // The view it was aligned against is the one its integration's dynamic mask reads.
+    if (best_attempt->model) model_ = *best_attempt->model;
     // The gates' history holds fully constrained frames only: a run of held ones must not
     // raise what counts as usual.
     if (best.held_directions == 0) {
@@ -476,6 +564,13 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
 
 void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking) {
   const auto start = std::chrono::steady_clock::now();
+  model_ = CastModelView(world_from_depth, for_tracking);
+  fused_since_raycast_ = 0;
+  model_for_tracking_ = for_tracking;
+  record.raycast_ms = Ms(start);
+}
+
+ModelPyramid Reconstruction::CastModelView(const core::Rigid3d& world_from_depth, bool for_tracking) const {
   PinholeCamera camera = depth_undistorter_.pinhole();
   for (int l = 0; l < options_.raycast_level; ++l) camera = camera.Half();
   RaycastOptions raycast = options_.raycast;
@@ -483,214 +578,27 @@ void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRec
   raycast.with_colour = for_tracking && options_.icp.photometric_weight > 0 && options_.integrate_colour && rig_.rgb;
   PointMap level = Raycast(volume_, camera, world_from_depth, raycast);
   const int num_levels = static_cast<int>(options_.icp.iterations.size());
-  model_ = BuildModelPyramid(std::move(level), camera, world_from_depth,
-                             num_levels - options_.raycast_level);
+  ModelPyramid model = BuildModelPyramid(std::move(level), camera, world_from_depth,
+                                         num_levels - options_.raycast_level);
+  if (options_.raycast_level == 0) return model;
   // Finer levels than the raycast stay empty: ICP skips them (their iterations are 0).
-  if (options_.raycast_level > 0) {
-    ModelPyramid padded;
-    padded.world_from_camera = model_->world_from_camera;
-    PinholeCamera finer = depth_undistorter_.pinhole();
-    for (int l = 0; l < options_.raycast_level; ++l) {
-      padded.cameras.push_back(finer);
-      padded.maps.emplace_back();
-      finer = finer.Half();
-    }
-    for (size_t l = 0; l < model_->maps.size(); ++l) {
-      padded.cameras.push_back(model_->cameras[l]);
-      padded.maps.push_back(std::move(model_->maps[l]));
-    }
-    model_ = std::move(padded);
+  ModelPyramid padded;
+  padded.world_from_camera = model.world_from_camera;
+  PinholeCamera finer = depth_undistorter_.pinhole();
+  for (int l = 0; l < options_.raycast_level; ++l) {
+    padded.cameras.push_back(finer);
+    padded.maps.emplace_back();
+    finer = finer.Half();
   }
-  fused_since_raycast_ = 0;
-  model_for_tracking_ = for_tracking;
-  record.raycast_ms = Ms(start);
+  for (size_t l = 0; l < model.maps.size(); ++l) {
+    padded.cameras.push_back(model.cameras[l]);
+    padded.maps.push_back(std::move(model.maps[l]));
+  }
+  return padded;
 }
 
 TriangleMesh Reconstruction::ExtractMesh(MeshStats* stats) const {
   return reconstruct::ExtractMesh(volume_, options_.mesh, stats);
-}
-
-FrameInput LoadScanFrame(const core::Scan& scan, int depth_index, bool with_rgb) {
-  using core::Stream;
-  FrameInput frame;
-  frame.timestamp_s = scan.Timestamp(Stream::kDepth, depth_index);
-  frame.depth_m = scan.LoadDepth(depth_index);
-  if (with_rgb && scan.rig().rgb) {
-    // The nearest colour frame within kMaxColourGapS, not only an associated one (within half a
-    // frame): a dropped colour frame must not leave the depth frame without its photometric
-    // term — on a wall, geometry alone lets ICP slide (measured: 80 mm in one frame). The
-    // motion between the two exposures is compensated (registration and integration use the
-    // pose at the colour frame's own time).
-    const std::optional<int> j =
-        scan.NearestFrame(Stream::kRgb, scan.DepthClockTime(Stream::kDepth, depth_index), kMaxColourGapS);
-    if (j && scan.FrameExists(Stream::kRgb, *j)) {
-      frame.rgb = scan.LoadRgb(*j);
-      frame.rgb_timestamp_s = scan.DepthClockTime(Stream::kRgb, *j);
-    }
-  }
-  return frame;
-}
-
-namespace {
-
-// Feeds a scan's thermal frames to a ThermalFusion in time order, each once the fused depth
-// poses reach it.
-class ThermalFeeder {
- public:
-  ThermalFeeder(const core::Scan& scan, ThermalFusion* fusion, ScanReconstruction& out)
-      : scan_(scan), fusion_(fusion), out_(out),
-        n_(fusion ? scan.NumFrames(core::Stream::kThermal) : 0) {
-    const double period_s = scan.MedianPeriod(core::Stream::kDepth);
-    max_live_dt_s_ = std::isfinite(period_s) ? 1.5 * period_s : 0.05;
-  }
-
-  // A fused depth frame (as recorded, distorted) and its pose: the thermal frames fed next
-  // test occlusion against the last two (ThermalFusionOptions).
-  void AddDepth(double timestamp_s, const cv::Mat& depth_m, const core::Rigid3d& world_from_depth) {
-    if (!fusion_) return;
-    if (live_.size() == 2) live_.erase(live_.begin());
-    live_.push_back({timestamp_s, LiveDepth{depth_m, world_from_depth}});
-  }
-
-  // Fuses the frames the trajectory now reaches; with `flush`, all remaining ones (those past
-  // the trajectory's end are only counted).
-  void Feed(const Reconstruction& reconstruction, bool flush) {
-    using core::Stream;
-    while (next_ < n_) {
-      const double t = scan_.Timestamp(Stream::kThermal, next_);
-      if (!flush && !fusion_->PoseAvailable(t, reconstruction.trajectory())) return;
-      const int i = next_++;
-      if (flush && !fusion_->PoseAvailable(t, reconstruction.trajectory())) {
-        ++out_.thermal_after_end;
-        continue;
-      }
-      if (!scan_.FrameExists(Stream::kThermal, i)) {
-        ++out_.thermal_missing_frames;
-        out_.warnings.push_back(core::StringPrintf("thermal frame %d at %.6f s: %s is missing, skipped", i, t,
-                                                   scan_.FramePath(Stream::kThermal, i).c_str()));
-        continue;
-      }
-      auto start = std::chrono::steady_clock::now();
-      ThermalFrameInput frame;
-      frame.index = i;
-      frame.timestamp_s = t;
-      frame.apparent_c = scan_.LoadThermal(i);
-      out_.thermal_load_seconds += Ms(start) / 1000;
-      start = std::chrono::steady_clock::now();
-      // The fused depth frames around it: within a depth period and a half of its time.
-      std::vector<LiveDepth> live;
-      const double t_depth = fusion_->DepthClockTime(t);
-      for (const auto& [t_live, depth] : live_) {
-        if (std::abs(t_live - t_depth) <= max_live_dt_s_) live.push_back(depth);
-      }
-      fusion_->AddFrame(reconstruction.volume(), frame, reconstruction.trajectory(), live);
-      out_.thermal_seconds += Ms(start) / 1000;
-      ++out_.thermal_frames;
-    }
-  }
-
- private:
-  const core::Scan& scan_;
-  ThermalFusion* fusion_;
-  ScanReconstruction& out_;
-  int n_ = 0, next_ = 0;
-  std::vector<std::pair<double, LiveDepth>> live_;  // the last two fused depth frames, oldest first
-  double max_live_dt_s_ = 0.05;
-};
-
-}  // namespace
-
-double PoseGapLimitS(const core::Scan& scan) {
-  const double period_s = scan.MedianPeriod(core::Stream::kDepth);
-  return std::isfinite(period_s) ? std::max(0.1, 3 * period_s) : 0.1;
-}
-
-ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& reconstruction,
-                                   const ScanReconstructionOptions& options,
-                                   const std::function<void(int, int)>& frame_done, ThermalFusion* thermal) {
-  assert(options.Check().empty());
-  using core::Stream;
-  ScanReconstruction out;
-  const int n = scan.NumFrames(Stream::kDepth);
-  const int first = std::min(options.first_frame, n);
-  const int last = options.max_frames > 0 ? std::min(n, first + options.max_frames) : n;
-  const bool use_rgb = reconstruction.options().integrate_colour && scan.rig().rgb &&
-                       scan.NumFrames(Stream::kRgb) > 0;
-  ThermalFeeder feeder(scan, thermal, out);
-  const double pose_gap_s = PoseGapLimitS(scan);
-  for (int i = first; i < last; ++i) {
-    const double t = scan.Timestamp(Stream::kDepth, i);
-    if (!scan.FrameExists(Stream::kDepth, i)) {
-      ++out.missing_frames;
-      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: %s is missing, skipped",
-                                                i, t, scan.FramePath(Stream::kDepth, i).c_str()));
-      if (frame_done) frame_done(i - first + 1, last - first);
-      continue;
-    }
-    auto load_start = std::chrono::steady_clock::now();
-    FrameInput frame = LoadScanFrame(scan, i, use_rgb);
-    out.load_seconds += Ms(load_start) / 1000;
-
-    if (options.poses) {
-      frame.world_from_depth = options.poses->At(t, pose_gap_s);
-      if (!frame.world_from_depth) {
-        ++out.unposed_frames;
-        out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: no given pose, skipped", i, t));
-        if (frame_done) frame_done(i - first + 1, last - first);
-        continue;
-      }
-    }
-    if (options.start_at_groundtruth && reconstruction.trajectory().empty()) {
-      const std::optional<core::Rigid3d> gt =
-          scan.groundtruth() ? scan.groundtruth()->At(t) : std::nullopt;
-      if (!gt) {
-        throw std::invalid_argument(core::StringPrintf(
-            "start at groundtruth: %s has no pose at %.6f s (depth frame %d)",
-            scan.groundtruth() ? "groundtruth.txt" : "the scan has no groundtruth.txt, so it", t, i));
-      }
-      reconstruction.SetInitialPose(*gt);
-    }
-    const auto process_start = std::chrono::steady_clock::now();
-    const FrameRecord& record = reconstruction.AddFrame(frame);
-    out.process_seconds += Ms(process_start) / 1000;
-    out.depth_frame_index.push_back(i);
-    if (record.status == FrameStatus::kLost) {
-      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking lost (%s), not fused",
-                                                i, t, IcpStatusName(record.icp_status).c_str()));
-    } else if (record.status == FrameStatus::kRecovered) {
-      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking recovered", i, t));
-    } else if (record.status == FrameStatus::kNoDepth) {
-      out.warnings.push_back(core::StringPrintf(
-          "depth frame %d at %.6f s: only %.1f %% of pixels have depth, skipped", i, t,
-          100 * record.valid_depth_fraction));
-    }
-    if (thermal && record.fused) {
-      feeder.AddDepth(t, frame.depth_m, reconstruction.trajectory().poses().back().world_from_sensor);
-      feeder.Feed(reconstruction, false);
-    }
-    if (frame_done) frame_done(i - first + 1, last - first);
-  }
-  if (thermal) {
-    feeder.Feed(reconstruction, true);
-    const auto finish_start = std::chrono::steady_clock::now();
-    thermal->Finish();
-    out.thermal_finish_seconds = Ms(finish_start) / 1000;
-  }
-  if (reconstruction.trajectory().empty() && options.poses && out.unposed_frames > 0 &&
-      out.unposed_frames + out.missing_frames == last - first) {
-    throw core::InputError(scan.IndexPath(Stream::kDepth),
-                           core::StringPrintf("none of the %d depth frames used lies within the given poses "
-                                              "(%.6f to %.6f s)",
-                                              last - first, options.poses->StartTime(), options.poses->EndTime()));
-  }
-  if (reconstruction.trajectory().empty()) {
-    throw core::InputError(scan.IndexPath(Stream::kDepth),
-                           core::StringPrintf("no usable depth: none of the %d depth frames used has "
-                                              "valid depth on %.0f %% of its pixels",
-                                              last - first,
-                                              100 * reconstruction.options().min_valid_depth_fraction));
-  }
-  return out;
 }
 
 }  // namespace hw::reconstruct

@@ -22,6 +22,7 @@
 #include "reconstruct/depth_frame.h"
 #include "reconstruct/dynamic_mask.h"
 #include "reconstruct/icp.h"
+#include "reconstruct/keyframes.h"
 #include "reconstruct/marching_cubes.h"
 #include "reconstruct/raycast.h"
 #include "reconstruct/thermal_fusion.h"
@@ -117,6 +118,12 @@ struct ReconstructionOptions {
   // icp.max_held_directions of them (a frame without colour facing a flat wall) and the
   // frame counts as failed. > 1.
   double max_condition_ratio = 5.0;
+  // Global relocalisation (keyframes.h): tracked frames at new places are kept as small
+  // blurred images; a lost frame that neither the last pose nor the extrapolated one aligns
+  // is tried from the poses of the keyframes it looks most alike, against the model raycast
+  // there — so tracking comes back when the rig returns to a place it mapped, however far it
+  // went unobserved. candidates 0: off.
+  KeyframeOptions keyframes;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
 
@@ -172,6 +179,10 @@ struct FrameRecord {
   // by relocalisation_widening (a retry, or relocalisation).
   bool from_last_pose = false;
   bool widened_gate = false;
+  // Recovered frames: the keyframe (index in Reconstruction::keyframes()) whose pose ICP
+  // started from, against the model raycast there; -1 when none (relocalised from the last
+  // or the extrapolated pose).
+  int keyframe = -1;
   int iterations = 0;
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;
@@ -204,6 +215,8 @@ class Reconstruction {
   const ReconstructionOptions& options() const { return options_; }
   // True while the last frame was lost (no model view to track against is current).
   bool lost() const { return lost_; }
+  // The keyframes kept for relocalisation (options().keyframes).
+  const KeyframeDatabase& keyframes() const { return keyframes_; }
 
   // Marching cubes of the volume (options().mesh).
   TriangleMesh ExtractMesh(MeshStats* stats = nullptr) const;
@@ -219,8 +232,12 @@ class Reconstruction {
   // Raycasts the model view at world_from_depth; with colour only `for_tracking` (the
   // photometric term; a posed frame's view serves the dynamic mask alone).
   void UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking = true);
+  // The model view at world_from_depth as ICP takes it (levels finer than raycast_level
+  // empty), with colour when for_tracking and the photometric term is on.
+  ModelPyramid CastModelView(const core::Rigid3d& world_from_depth, bool for_tracking) const;
   // world_from_depth at time t from the two last fused poses (interpolated between them, or
-  // extrapolated at constant velocity beyond the last).
+  // extrapolated at constant velocity beyond the last); the last pose when they lie more
+  // than half a second apart (a loss between them: no velocity to go by).
   core::Rigid3d PoseAt(double timestamp_s) const;
 
   core::Rig rig_;
@@ -235,6 +252,10 @@ class Reconstruction {
   std::vector<FrameRecord> frames_;
   std::optional<core::Rigid3d> initial_pose_;
   std::optional<ModelPyramid> model_;  // raycast at a recent fused pose
+  KeyframeDatabase keyframes_;
+  // While lost: the model views cast at keyframe poses for relocalisation, by keyframe (the
+  // volume does not change while no frame is fused, so each is cast once per loss).
+  std::vector<std::pair<int, ModelPyramid>> relocalisation_views_;
   int fused_since_raycast_ = 0;        // frames fused since model_ was raycast
   bool model_for_tracking_ = false;    // model_ was cast for tracking (with colour), not for a posed frame
   bool lost_ = false;

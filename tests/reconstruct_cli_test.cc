@@ -76,7 +76,8 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019", "\"noise_gate_sigmas\": 0",
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
-                          "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\""}) {
+                          "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\"",
+                          "\"keyframes\": {\"candidates\": 3", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
@@ -300,6 +301,14 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                " --icp-noise-gate -1");
   EXPECT_EQ(gate.exit_code, 2) << gate.output;
   EXPECT_NE(gate.output.find("noise_gate_sigmas"), std::string::npos) << gate.output;
+  const Result candidates = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                     " --relocalisation-candidates 11");
+  EXPECT_EQ(candidates.exit_code, 2) << candidates.output;
+  EXPECT_NE(candidates.output.find("keyframes.candidates"), std::string::npos) << candidates.output;
+  const Result spacing = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                  " --keyframe-spacing 0");
+  EXPECT_EQ(spacing.exit_code, 2) << spacing.output;
+  EXPECT_NE(spacing.output.find("keyframes.min_distance_m"), std::string::npos) << spacing.output;
   const Result noise = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                 " --icp-noise-depth 0.01");
   EXPECT_EQ(noise.exit_code, 2) << noise.output;
