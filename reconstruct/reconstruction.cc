@@ -271,6 +271,10 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     // last pose first.
     if (!model_ || !model_for_tracking_) UpdateModel(trajectory_.poses().back().world_from_sensor, record);
     start = std::chrono::steady_clock::now();
+    // Unobserved for longer than a hand-held rig keeps its motion (a covered lens gives frames
+    // without depth, a stalled stream none): the rig may be anywhere, so relocalise as after
+    // a loss instead of tracking from a prediction that no velocity supports.
+    if (frame.timestamp_s - trajectory_.poses().back().timestamp_s > kMaxExtrapolationS) lost_ = true;
     const bool was_lost = lost_;
     const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
     record.track_ms = Ms(start);
