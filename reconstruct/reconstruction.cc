@@ -302,9 +302,13 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   const bool due = model_ && (++fused_since_raycast_ >= options_.raycast_interval || ViewTooFar(world_from_depth));
   const bool raycast = frame.world_from_depth ? options_.dynamic.enabled() && (!model_ || due)
                                               : !model_ || !normal || due;
-  // A place not kept yet, seen by a frame whose pose is trusted (the first, or tracked
-  // normally: not a relocalised or held one), becomes a keyframe.
-  if (options_.keyframes.enabled() && (record.status == FrameStatus::kInitialised || normal) &&
+  // A place not kept yet, seen by a frame whose pose is trusted (the first, or tracked with
+  // every direction constrained: not a relocalised or held one), becomes a keyframe — also
+  // after a jerk (a large correction from the prediction), which is when keyframes are
+  // needed next.
+  if (options_.keyframes.enabled() &&
+      (record.status == FrameStatus::kInitialised ||
+       (record.status == FrameStatus::kTracked && record.held_directions == 0)) &&
       keyframes_.IsNewPlace(world_from_depth)) {
     const DepthLevel& coarsest = pyramid.levels.back();
     keyframes_.Add(world_from_depth,
