@@ -18,9 +18,10 @@
 namespace hw::reconstruct {
 
 struct KeyframeOptions {
-  // Keyframes tried per lost frame, best match first, once the relocalisation from the last
-  // pose and the extrapolated one has failed; 0 turns keyframes off. In [0, 10]. Each costs
-  // a raycast of the model at its pose (once per loss) and an ICP run.
+  // Keyframes tried per lost frame, best match first, when the relocalisation from the last
+  // pose and the extrapolated one has failed or the loss has lasted over 0.5 s; 0 turns
+  // keyframes off. In [0, 10]. Each costs a raycast of the model at its pose (once per loss),
+  // an ICP run, and up to 3 raycasts and ICP runs refining a converged one.
   int candidates = 3;
   // A fused frame tracked normally becomes a keyframe when it is farther than this from
   // every keyframe, m, > 0: 0.1 m is a tenth of a view at 1 m, within ICP's widened

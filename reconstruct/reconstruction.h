@@ -4,10 +4,11 @@
 // undistorted and filtered, tracked frame-to-model by ICP against a raycast of the fused
 // volume, then fused into the sparse TSDF (with colour from the rgb stream at its own time),
 // and the volume raycast again for the next frame. A frame whose tracking fails is reported,
-// not fused, and later frames relocalise against the model.
+// not fused, and later frames relocalise against the model (near the last pose, or from a
+// keyframe of a place mapped before).
 //
 // Fed frame by frame (live capture) through AddFrame, or over a whole scan folder by
-// ReconstructScan. The volume and trajectory are what thermal fusion and analysis build on.
+// ReconstructScan (scan_reconstruction.cc). The volume and trajectory are what thermal fusion and analysis build on.
 
 #include <functional>
 #include <optional>
@@ -119,10 +120,10 @@ struct ReconstructionOptions {
   // frame counts as failed. > 1.
   double max_condition_ratio = 5.0;
   // Global relocalisation (keyframes.h): tracked frames at new places are kept as small
-  // blurred images; a lost frame that neither the last pose nor the extrapolated one aligns
-  // is tried from the poses of the keyframes it looks most alike, against the model raycast
-  // there — so tracking comes back when the rig returns to a place it mapped, however far it
-  // went unobserved. candidates 0: off.
+  // blurred images; a lost frame that neither the last pose nor the extrapolated one aligns,
+  // or one lost (or unobserved) for over 0.5 s, is tried from the poses of the keyframes it
+  // looks most alike, against the model raycast there — so tracking comes back when the rig
+  // returns to a place it mapped, however far it went unobserved. candidates 0: off.
   KeyframeOptions keyframes;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
