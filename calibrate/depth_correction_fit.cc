@@ -35,9 +35,8 @@ constexpr int kCoveredNodeSamples = 50;
 using Stencil = core::DepthCorrection::Stencil;
 
 Eigen::Vector2d NodePosition(const core::DepthCorrection& grid, int k) {
-  const int ix = k % grid.nx, iy = k / grid.nx;
-  return {grid.x_range[0] + (grid.x_range[1] - grid.x_range[0]) * ix / (grid.nx - 1),
-          grid.y_range[0] + (grid.y_range[1] - grid.y_range[0]) * iy / (grid.ny - 1)};
+  const auto [x, y] = grid.NodePosition(k % grid.nx, k / grid.nx);
+  return {x, y};
 }
 
 // K × 3 basis of affine fields at the nodes: (1, x_k, y_k).

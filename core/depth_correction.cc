@@ -81,9 +81,8 @@ double DepthCorrection::RmsPerM() const {
 void DepthCorrection::AddAffine(double a_per_m, double c_x_per_m, double c_y_per_m) {
   assert(offset_per_m.size() == static_cast<size_t>(nx) * ny);
   for (int iy = 0; iy < ny; ++iy) {
-    const double y = y_range[0] + (y_range[1] - y_range[0]) * iy / (ny - 1);
     for (int ix = 0; ix < nx; ++ix) {
-      const double x = x_range[0] + (x_range[1] - x_range[0]) * ix / (nx - 1);
+      const auto [x, y] = NodePosition(ix, iy);
       offset_per_m[static_cast<size_t>(iy) * nx + ix] += a_per_m + c_x_per_m * x + c_y_per_m * y;
     }
   }

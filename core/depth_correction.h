@@ -55,6 +55,11 @@ struct DepthCorrection {
   // δ at normalised coordinates (x, y), 1/m: bilinear between the four nodes around it,
   // the border node's value beyond the grid.
   double OffsetAt(double x, double y) const;
+  // Normalised coordinates (x, y) of node (ix, iy): the grid spans x_range × y_range.
+  std::array<double, 2> NodePosition(int ix, int iy) const {
+    return {x_range[0] + (x_range[1] - x_range[0]) * ix / (nx - 1),
+            y_range[0] + (y_range[1] - y_range[0]) * iy / (ny - 1)};
+  }
   // RMS of offset_per_m over the nodes, 1/m (0 for none): the field's size.
   double RmsPerM() const;
   // Adds the affine field a + c_x·x + c_y·y (1/m; x, y normalised coordinates) to every

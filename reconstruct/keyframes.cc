@@ -143,13 +143,14 @@ double KeyframeDistance(const KeyframeDescriptor& a, const KeyframeDescriptor& b
   return (sum + 0.5 * 0.5 * one) / (both + 0.5 * one);
 }
 
+bool KeyframeDatabase::SamePlace(const core::Rigid3d& a, const core::Rigid3d& b) const {
+  const core::PoseError e = core::ComparePoses(a, b);
+  return e.translation_m <= options_.min_distance_m && e.rotation_rad <= options_.min_angle_deg * std::numbers::pi / 180;
+}
+
 bool KeyframeDatabase::IsNewPlace(const core::Rigid3d& world_from_depth) const {
-  const double max_angle_rad = options_.min_angle_deg * std::numbers::pi / 180;
-  for (const core::Rigid3d& pose : poses_) {
-    const core::PoseError e = core::ComparePoses(pose, world_from_depth);
-    if (e.translation_m <= options_.min_distance_m && e.rotation_rad <= max_angle_rad) return false;
-  }
-  return true;
+  return std::none_of(poses_.begin(), poses_.end(),
+                      [&](const core::Rigid3d& pose) { return SamePlace(pose, world_from_depth); });
 }
 
 void KeyframeDatabase::Add(const core::Rigid3d& world_from_depth, KeyframeDescriptor descriptor) {

@@ -75,6 +75,8 @@ class KeyframeDatabase {
   // Whether a frame at this pose would be a new keyframe: farther than min_distance_m, or
   // turned more than min_angle_deg, from every keyframe.
   bool IsNewPlace(const core::Rigid3d& world_from_depth) const;
+  // Whether two poses are within min_distance_m and min_angle_deg of each other (one place).
+  bool SamePlace(const core::Rigid3d& a, const core::Rigid3d& b) const;
   void Add(const core::Rigid3d& world_from_depth, KeyframeDescriptor descriptor);
 
   // Indices of at most `count` keyframes whose distance to `query` is at most

@@ -112,6 +112,8 @@ TEST(KeyframeDatabase, NewPlacesAndTheMostAlikeFirst) {
   EXPECT_FALSE(db.IsNewPlace(at(0.05, 8)));
   EXPECT_TRUE(db.IsNewPlace(at(0.15)));
   EXPECT_TRUE(db.IsNewPlace(at(0, 12)));
+  EXPECT_TRUE(db.SamePlace(at(0.3), at(0.38, 9)));
+  EXPECT_FALSE(db.SamePlace(at(0.3), at(0.3, 11)));
   db.Add(at(0.2), DescribeFrame(Depth(2.08f), cv::Mat(), 40));  // 0.64 from the query: too unlike
   db.Add(at(0.4), DescribeFrame(Depth(2.03f), cv::Mat(), 40));  // 0.09
   db.Add(at(0.6), DescribeFrame(Depth(2.01f), cv::Mat(), 40));  // 0.01

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/strings.h"
+#include "reconstruct/elapsed.h"
 #include "reconstruct/option_check.h"
 #include "reconstruct/row_bands.h"
 
@@ -35,9 +36,6 @@ ReconstructionOptions Effective(ReconstructionOptions o) {
   return o;
 }
 
-double Ms(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
-}
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
@@ -249,7 +247,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                                                  options_.depth, registered_rgb);
   record.valid_depth_fraction =
       static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
-  record.prepare_ms = Ms(start);
+  record.prepare_ms = internal::MsSince(start);
 
   if (record.valid_depth_fraction < options_.min_valid_depth_fraction ||
       record.valid_depth_fraction == 0) {
@@ -277,7 +275,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     if (frame.timestamp_s - trajectory_.poses().back().timestamp_s > kMaxExtrapolationS) lost_ = true;
     const bool was_lost = lost_;
     const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
-    record.track_ms = Ms(start);
+    record.track_ms = internal::MsSince(start);
     if (!ok) {
       lost_ = true;
       record.status = FrameStatus::kLost;
@@ -335,6 +333,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   assert(model_.has_value());
   const auto& poses = trajectory_.poses();
   const core::Rigid3d last = poses.back().world_from_sensor;
+  const double elapsed_s = timestamp_s - poses.back().timestamp_s;  // since the last fused frame
   const double w = options_.relocalisation_widening;
 
   // ICP runs to try, each a start pose and its options: tracking takes the first that
@@ -344,7 +343,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     IcpOptions icp;
     bool from_last_pose = false, widened = false;
     int keyframe = -1;                    // started from this keyframe's pose ...
-    const ModelPyramid* model = nullptr;  // ... against this view (nullptr: model_)
+    const ModelPyramid* model = nullptr;  // ... against this view (nullptr: model_, the last pose's)
   };
   std::vector<Attempt> attempts;
   IcpOptions wide = options_.icp;
@@ -367,7 +366,6 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     // allowed jump grow with the time since the last fused frame, at the nominal frame rate.
     const double period_s =
         poses.size() >= 2 ? poses.back().timestamp_s - poses[poses.size() - 2].timestamp_s : 1.0 / 30;
-    const double elapsed_s = timestamp_s - poses.back().timestamp_s;
     const double frames_elapsed = std::max(1.0, elapsed_s / std::max(period_s, 1e-3));
     wide.max_jump_m *= w * frames_elapsed;
     wide.max_jump_deg = std::min(180.0, wide.max_jump_deg * w * frames_elapsed);
@@ -401,9 +399,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   IcpResult best;
   const Attempt* best_attempt = &attempts.front();
   bool ok = false;
-  const auto run = [&](Attempt& attempt, bool first_pass) {
+  for (Attempt& attempt : attempts) {
     attempt.icp.max_condition = std::min(attempt.icp.max_condition, max_condition);
-    IcpResult result = AlignToModel(pyramid, attempt.model ? *attempt.model : *model_, attempt.initial, attempt.icp);
+    IcpResult result = AlignToModel(pyramid, *model_, attempt.initial, attempt.icp);
     if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
       result.status = IcpStatus::kLargeResidual;
     }
@@ -413,13 +411,10 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
         best_attempt = &attempt;
       }
       ok = true;
-      return;
+      if (!lost_) break;  // tracking: the first success; relocalising: the best of all
+      continue;
     }
-    if (first_pass && &attempt == &attempts.front()) best = result;  // report the first failure
-  };
-  for (Attempt& attempt : attempts) {
-    run(attempt, true);
-    if (ok && !lost_) break;  // tracking: the first success; relocalising: the best of all
+    if (&attempt == &attempts.front()) best = result;  // report the first failure
   }
   // Lost, and neither the last nor the extrapolated pose aligns the frame, or lost for longer
   // than a hand-held rig keeps its motion: the rig may be anywhere it has been. Try the
@@ -429,12 +424,10 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   // along a cabinet front onto a wrong fit (measured: 26 mm off from 0.55 m away).
   std::vector<Attempt> global;
   std::vector<ModelPyramid> refined_views;  // stable: reserved before the first is added
-  const double lost_for_s = timestamp_s - poses.back().timestamp_s;
-  if (lost_ && (!ok || lost_for_s > kMaxExtrapolationS) && options_.keyframes.enabled() && keyframes_.size() > 0) {
+  if (lost_ && (!ok || elapsed_s > kMaxExtrapolationS) && options_.keyframes.enabled() && keyframes_.size() > 0) {
     const DepthLevel& coarsest = pyramid.levels.back();
     const KeyframeDescriptor query =
         DescribeFrame(coarsest.depth_m, coarsest.intensity, options_.keyframes.descriptor_width);
-    const double near_rad = options_.keyframes.min_angle_deg / kRadToDeg;
     // A long loss meets ever new candidates: keep the cache to about one frame's.
     if (relocalisation_views_.size() > 3 * static_cast<size_t>(options_.keyframes.candidates)) {
       relocalisation_views_.clear();
@@ -442,8 +435,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     for (int k : keyframes_.MostAlike(query, keyframes_.size())) {
       if (static_cast<int>(global.size()) == options_.keyframes.candidates) break;
       // Where the last pose's attempt started already.
-      const core::PoseError from_last = core::ComparePoses(last, keyframes_.pose(k));
-      if (from_last.translation_m <= options_.keyframes.min_distance_m && from_last.rotation_rad <= near_rad) continue;
+      if (keyframes_.SamePlace(last, keyframes_.pose(k))) continue;
       if (std::none_of(relocalisation_views_.begin(), relocalisation_views_.end(),
                        [k](const auto& v) { return v.first == k; })) {
         relocalisation_views_.emplace_back(k, CastModelView(keyframes_.pose(k), true));
@@ -567,7 +559,7 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
   }
   volume_.Integrate(depth_m, depth_undistorter_.pinhole(), world_from_depth, colour ? &*colour : nullptr);
   record.integrated = true;
-  record.integrate_ms = Ms(start);
+  record.integrate_ms = internal::MsSince(start);
 }
 
 void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking) {
@@ -575,7 +567,7 @@ void Reconstruction::UpdateModel(const core::Rigid3d& world_from_depth, FrameRec
   model_ = CastModelView(world_from_depth, for_tracking);
   fused_since_raycast_ = 0;
   model_for_tracking_ = for_tracking;
-  record.raycast_ms = Ms(start);
+  record.raycast_ms = internal::MsSince(start);
 }
 
 ModelPyramid Reconstruction::CastModelView(const core::Rigid3d& world_from_depth, bool for_tracking) const {

@@ -10,14 +10,11 @@
 
 #include "core/error.h"
 #include "core/strings.h"
+#include "reconstruct/elapsed.h"
 
 namespace hw::reconstruct {
 
 namespace {
-
-double Ms(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
-}
 
 // Largest time between a depth frame and the colour frame used with it, s: three frames at
 // 30 Hz (a dropped frame or two), short enough for the predicted motion to bridge.
@@ -90,7 +87,7 @@ class ThermalFeeder {
       frame.index = i;
       frame.timestamp_s = t;
       frame.apparent_c = scan_.LoadThermal(i);
-      out_.thermal_load_seconds += Ms(start) / 1000;
+      out_.thermal_load_seconds += internal::MsSince(start) / 1000;
       start = std::chrono::steady_clock::now();
       // The fused depth frames around it: within a depth period and a half of its time.
       std::vector<LiveDepth> live;
@@ -99,7 +96,7 @@ class ThermalFeeder {
         if (std::abs(t_live - t_depth) <= max_live_dt_s_) live.push_back(depth);
       }
       fusion_->AddFrame(reconstruction.volume(), frame, reconstruction.trajectory(), live);
-      out_.thermal_seconds += Ms(start) / 1000;
+      out_.thermal_seconds += internal::MsSince(start) / 1000;
       ++out_.thermal_frames;
     }
   }
@@ -144,7 +141,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     }
     auto load_start = std::chrono::steady_clock::now();
     FrameInput frame = LoadScanFrame(scan, i, use_rgb);
-    out.load_seconds += Ms(load_start) / 1000;
+    out.load_seconds += internal::MsSince(load_start) / 1000;
 
     if (options.poses) {
       frame.world_from_depth = options.poses->At(t, pose_gap_s);
@@ -167,7 +164,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     }
     const auto process_start = std::chrono::steady_clock::now();
     const FrameRecord& record = reconstruction.AddFrame(frame);
-    out.process_seconds += Ms(process_start) / 1000;
+    out.process_seconds += internal::MsSince(process_start) / 1000;
     out.depth_frame_index.push_back(i);
     if (record.status == FrameStatus::kLost) {
       out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking lost (%s), not fused",
@@ -189,7 +186,7 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     feeder.Feed(reconstruction, true);
     const auto finish_start = std::chrono::steady_clock::now();
     thermal->Finish();
-    out.thermal_finish_seconds = Ms(finish_start) / 1000;
+    out.thermal_finish_seconds = internal::MsSince(finish_start) / 1000;
   }
   if (reconstruction.trajectory().empty() && options.poses && out.unposed_frames > 0 &&
       out.unposed_frames + out.missing_frames == last - first) {

@@ -13,18 +13,11 @@
 
 #include "core/option_check.h"
 #include "core/strings.h"
+#include "reconstruct/elapsed.h"
 #include "reconstruct/thermal_fusion_impl.h"
 #include "reconstruct/tsdf_volume_impl.h"
 
 namespace hw::reconstruct {
-
-namespace {
-
-double Ms(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 std::string ThermalFusionOptions::Check() const {
   using core::OptionFail;
@@ -453,7 +446,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   raycast.max_depth_m = m.options.max_depth_m;
   raycast.num_threads = m.options.num_threads;
   const PointMap map = Raycast(volume, m.rays, world_from_thermal, raycast);
-  record.raycast_ms = Ms(start);
+  record.raycast_ms = internal::MsSince(start);
   record.rays = m.num_rays;
 
   start = std::chrono::steady_clock::now();
@@ -465,7 +458,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   if (m.scene_correction.enabled()) m.CorrectFrame(fused, record);
   m.camera_in_world = world_from_thermal.translation.cast<float>();
   m.Splat(fused, record);
-  record.fuse_ms = Ms(start);
+  record.fuse_ms = internal::MsSince(start);
   record.status = record.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;
   return record;
 }
