@@ -83,7 +83,12 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg)
       .Number("reuse_max_motion_m", r.reuse_max_motion_m)
       .Number("reuse_max_motion_deg", r.reuse_max_motion_deg);
-  JsonObject dynamic, keyframes;
+  JsonObject dynamic, keyframes, prealign;
+  prealign.Int("iterations", r.prealign.iterations)
+      .Number("blur_sigma_px", r.prealign.blur_sigma_px)
+      .Number("max_rotation_deg", r.prealign.max_rotation_deg)
+      .Number("huber", r.prealign.huber)
+      .Int("min_pixels", r.prealign.min_pixels);
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
   keyframes.Int("candidates", r.keyframes.candidates)
       .Number("min_distance_m", r.keyframes.min_distance_m)
@@ -111,6 +116,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Add("raycast", raycast.str())
       .Add("dynamic", dynamic.str())
       .Add("keyframes", keyframes.str())
+      .Add("prealign", prealign.str())
       .Add("mesh", mesh.str());
   return all.str();
 }
@@ -138,6 +144,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Int("keyframe", f.keyframe)
         .Bool("widened_gate", f.widened_gate)
         .Int("iterations", f.iterations)
+        .Number("prealign_deg", f.prealign_deg)
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
   }
@@ -594,6 +601,11 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dynamic-fraction", r.dynamic.margin_fraction,
                  "the same margin as a fraction of the pixel's depth, [0, 1)")
+      ->capture_default_str();
+  app.add_option("--prealign-iterations", r.prealign.iterations,
+                 "before ICP, align each frame's coarse grey image to the previous frame's by rotation (a jerk "
+                 "turns the rig past the constant-velocity prediction), this many Gauss-Newton iterations, "
+                 "[0, 50] (0: off; needs colour)")
       ->capture_default_str();
   app.add_option("--relocalisation-candidates", r.keyframes.candidates,
                  "after a loss that the last pose cannot bridge, try aligning from this many of the keyframes the "

@@ -143,6 +143,7 @@ std::string ReconstructionOptions::Check() const {
   if (std::string m = e.mesh.Check(); !m.empty()) return "mesh." + m;
   if (std::string m = e.dynamic.Check(); !m.empty()) return "dynamic." + m;
   if (std::string m = keyframes.Check(); !m.empty()) return "keyframes." + m;
+  if (std::string m = prealign.Check(); !m.empty()) return "prealign." + m;
   return "";
 }
 
@@ -245,6 +246,22 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   const DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),
                                                  options_.depth, registered_rgb);
+  // Whatever becomes of this frame, the next one pre-aligns against it (only when it is
+  // the last fused frame: PrealignedPrediction checks the time).
+  struct KeepImage {
+    Reconstruction& self;
+    const DepthPyramid& pyramid;
+    double timestamp_s;
+    ~KeepImage() {
+      const DepthLevel& coarsest = pyramid.levels.back();
+      if (coarsest.intensity.empty()) {
+        self.previous_image_.reset();
+      } else {
+        self.previous_image_ = PrealignImage{coarsest.intensity, coarsest.depth_m, coarsest.camera};
+        self.previous_image_timestamp_s_ = timestamp_s;
+      }
+    }
+  } keep_image{*this, pyramid, frame.timestamp_s};
   record.valid_depth_fraction =
       static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
   record.prepare_ms = internal::MsSince(start);
@@ -356,9 +373,10 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     // gate between two frames (measured: 45 mm and 1.8° per frame on a loop at 10 Hz, which
     // converged at the normal gate on 13 % inliers and was lost for 25 frames). With one
     // pose there is no velocity: the prediction is the last pose, tried once per gate.
+    const core::Rigid3d start = PrealignedPrediction(pyramid, timestamp_s, record);
     for (const IcpOptions* icp : {&options_.icp, &wide}) {
       if (icp == &wide && w == 1) break;
-      attempts.push_back({PoseAt(timestamp_s), *icp, poses.size() < 2, icp == &wide});
+      attempts.push_back({start, *icp, poses.size() < 2, icp == &wide});
       if (poses.size() >= 2) attempts.push_back({last, *icp, true, icp == &wide});
     }
   } else {
@@ -491,8 +509,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
   record.widened_gate = best_attempt->widened;
   record.keyframe = best_attempt->keyframe;
   record.iterations = best.iterations;
+  // From the prediction itself (not the pre-aligned start): how much the motion changed.
   const core::PoseError correction =
-      core::ComparePoses(attempts.front().initial, best.world_from_camera);
+      core::ComparePoses(lost_ ? attempts.front().initial : PoseAt(timestamp_s), best.world_from_camera);
   record.correction_m = correction.translation_m;
   record.correction_deg = correction.rotation_rad * kRadToDeg;
   if (ok) {
@@ -511,6 +530,29 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     }
   }
   return ok;
+}
+
+core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, double timestamp_s,
+                                                   FrameRecord& record) const {
+  const core::Rigid3d prediction = PoseAt(timestamp_s);
+  const auto& poses = trajectory_.poses();
+  const DepthLevel& coarsest = pyramid.levels.back();
+  if (!options_.prealign.enabled() || options_.icp.photometric_weight <= 0 || !previous_image_ ||
+      coarsest.intensity.empty() || previous_image_timestamp_s_ != poses.back().timestamp_s ||
+      previous_image_->grey.size() != coarsest.intensity.size()) {
+    return prediction;
+  }
+  const core::Rigid3d& last = poses.back().world_from_sensor;
+  const core::Rigid3d last_from_predicted = last.Inverse() * prediction;
+  const PrealignImage current{coarsest.intensity, coarsest.depth_m, coarsest.camera};
+  const RotationPrealignResult aligned =
+      PrealignRotation(*previous_image_, current, last_from_predicted.rotation, last_from_predicted.translation,
+                       options_.prealign);
+  if (!aligned.ok) return prediction;
+  record.prealign_deg = aligned.correction_deg;
+  core::Rigid3d last_from_current = last_from_predicted;
+  last_from_current.rotation = aligned.previous_from_current;
+  return last * last_from_current;
 }
 
 bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {

@@ -11,6 +11,7 @@
 // ReconstructScan (scan_reconstruction.cc). The volume and trajectory are what thermal fusion and analysis build on.
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,6 +27,7 @@
 #include "reconstruct/keyframes.h"
 #include "reconstruct/marching_cubes.h"
 #include "reconstruct/raycast.h"
+#include "reconstruct/rotation_prealign.h"
 #include "reconstruct/thermal_fusion.h"
 #include "reconstruct/tsdf_volume.h"
 
@@ -125,6 +127,12 @@ struct ReconstructionOptions {
   // looks most alike, against the model raycast there — so tracking comes back when the rig
   // returns to a place it mapped, however far it went unobserved. candidates 0: off.
   KeyframeOptions keyframes;
+  // Rotation pre-alignment (rotation_prealign.h): before ICP, each frame's coarsest grey
+  // image is aligned by rotation to the previous frame's, and ICP starts from that rotation
+  // (the translation of the constant-velocity prediction): a jerk turns the rig degrees per
+  // frame past the prediction, beyond ICP's basin along a textured wall. Needs colour and
+  // the photometric term; iterations 0: off.
+  RotationPrealignOptions prealign;
   // Threads of every stage (0: hardware concurrency); overrides the stages' own.
   int num_threads = 0;
 
@@ -185,6 +193,9 @@ struct FrameRecord {
   // or the extrapolated pose).
   int keyframe = -1;
   int iterations = 0;
+  // Rotation pre-alignment (ReconstructionOptions::prealign): how far it moved ICP's start
+  // from the prediction, degrees; NaN when it did not run or was not accepted.
+  double prealign_deg = std::numeric_limits<double>::quiet_NaN();
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;
   size_t blocks = 0;  // voxel blocks in the volume after this frame, fused or not (memory
@@ -225,6 +236,10 @@ class Reconstruction {
  private:
   bool Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
              core::Rigid3d& world_from_depth);
+  // The constant-velocity prediction at timestamp_s with its rotation replaced by the
+  // pre-alignment of `pyramid`'s coarsest level against the previous frame's (when that
+  // frame is the last fused one and the alignment is accepted; else the prediction).
+  core::Rigid3d PrealignedPrediction(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record) const;
   void Integrate(const DepthPyramid& pyramid, const FrameInput& frame, const cv::Mat& rgb_pinhole,
                  const core::Rigid3d& world_from_depth, FrameRecord& record);
   // Whether the next frame, predicted at constant velocity from this pose, would be beyond
@@ -263,6 +278,9 @@ class Reconstruction {
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
   std::vector<double> recent_conditions_;   // likewise
   double last_timestamp_s_ = -1e300;
+  // The last frame's coarsest level (grey and depth) for the rotation pre-alignment, and its time.
+  std::optional<PrealignImage> previous_image_;
+  double previous_image_timestamp_s_ = 0;
 };
 
 // The colour of each depth pixel: its point (depth_m, CV_32FC1 metres, of the pinhole

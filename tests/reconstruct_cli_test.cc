@@ -77,7 +77,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\"",
-                          "\"keyframes\": {\"candidates\": 3", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1"}) {
+                          "\"keyframes\": {\"candidates\": 3", "\"prealign\": {\"iterations\": 10", "\"prealign_deg\": ", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
@@ -305,6 +305,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                      " --relocalisation-candidates 11");
   EXPECT_EQ(candidates.exit_code, 2) << candidates.output;
   EXPECT_NE(candidates.output.find("keyframes.candidates"), std::string::npos) << candidates.output;
+  const Result prealign = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                   " --prealign-iterations 51");
+  EXPECT_EQ(prealign.exit_code, 2) << prealign.output;
+  EXPECT_NE(prealign.output.find("prealign.iterations"), std::string::npos) << prealign.output;
   const Result spacing = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                   " --keyframe-spacing 0");
   EXPECT_EQ(spacing.exit_code, 2) << spacing.output;

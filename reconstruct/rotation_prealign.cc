@@ -1,0 +1,172 @@
+#include "reconstruct/rotation_prealign.h"
+
+#include <cassert>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <opencv2/imgproc.hpp>
+
+#include "core/option_check.h"
+
+namespace hw::reconstruct {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+// Grey image blurred over the pixels with depth only (normalised convolution: holes neither
+// darken nor brighten their surroundings), and the blurred coverage (1 inside the valid
+// region, falling to 0 outside it).
+void BlurValid(const PrealignImage& image, double sigma_px, cv::Mat& grey, cv::Mat& coverage) {
+  const cv::Mat valid = image.depth_m > 0;
+  cv::Mat mask;
+  valid.convertTo(mask, CV_32FC1, 1.0 / 255);
+  cv::Mat weighted = image.grey.mul(mask);
+  if (sigma_px > 0) {
+    cv::GaussianBlur(weighted, weighted, cv::Size(), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+    cv::GaussianBlur(mask, coverage, cv::Size(), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  } else {
+    coverage = mask;
+  }
+  grey.create(image.grey.size(), CV_32FC1);
+  for (int y = 0; y < grey.rows; ++y) {
+    const float* w = weighted.ptr<float>(y);
+    const float* c = coverage.ptr<float>(y);
+    float* g = grey.ptr<float>(y);
+    for (int x = 0; x < grey.cols; ++x) g[x] = c[x] > 1e-3f ? w[x] / c[x] : 0.0f;
+  }
+}
+
+float Bilinear(const cv::Mat& image, int x0, int y0, float a, float c) {
+  const float* top = image.ptr<float>(y0) + x0;
+  const float* bottom = image.ptr<float>(y0 + 1) + x0;
+  const float t = top[0] + a * (top[1] - top[0]);
+  const float b = bottom[0] + a * (bottom[1] - bottom[0]);
+  return t + c * (b - t);
+}
+
+}  // namespace
+
+std::string RotationPrealignOptions::Check() const {
+  using core::InRange;
+  using core::OptionFail;
+  if (iterations < 0 || iterations > 50) return OptionFail("iterations", iterations, "in [0, 50]");
+  if (!InRange(blur_sigma_px, 0, 5)) return OptionFail("blur_sigma_px", blur_sigma_px, "in [0, 5] px");
+  if (!(max_rotation_deg > 0 && max_rotation_deg <= 90)) {
+    return OptionFail("max_rotation_deg", max_rotation_deg, "in (0, 90] degrees");
+  }
+  if (!(huber > 0 && huber <= 1)) return OptionFail("huber", huber, "in (0, 1] grey levels");
+  if (min_pixels < 10) return OptionFail("min_pixels", min_pixels, ">= 10");
+  return "";
+}
+
+RotationPrealignResult PrealignRotation(const PrealignImage& previous, const PrealignImage& current,
+                                        const Eigen::Quaterniond& guess_rotation,
+                                        const Eigen::Vector3d& guess_translation_m,
+                                        const RotationPrealignOptions& options) {
+  assert(previous.grey.type() == CV_32FC1 && current.grey.type() == CV_32FC1);
+  assert(previous.grey.size() == current.grey.size() && previous.depth_m.size() == previous.grey.size() &&
+         current.depth_m.size() == current.grey.size());
+  RotationPrealignResult result;
+  result.previous_from_current = guess_rotation.normalized();
+  if (!options.enabled()) return result;
+  const int width = previous.grey.cols, height = previous.grey.rows;
+  if (width < 4 || height < 4) return result;
+
+  cv::Mat prev_grey, prev_coverage, cur_grey, cur_coverage;
+  BlurValid(previous, options.blur_sigma_px, prev_grey, prev_coverage);
+  BlurValid(current, options.blur_sigma_px, cur_grey, cur_coverage);
+  // Central differences of the previous image (per pixel).
+  cv::Mat grad_x(height, width, CV_32FC1, cv::Scalar(0)), grad_y(height, width, CV_32FC1, cv::Scalar(0));
+  for (int y = 1; y + 1 < height; ++y) {
+    const float* row = prev_grey.ptr<float>(y);
+    const float* up = prev_grey.ptr<float>(y - 1);
+    const float* down = prev_grey.ptr<float>(y + 1);
+    float* gx = grad_x.ptr<float>(y);
+    float* gy = grad_y.ptr<float>(y);
+    for (int x = 1; x + 1 < width; ++x) {
+      gx[x] = 0.5f * (row[x + 1] - row[x - 1]);
+      gy[x] = 0.5f * (down[x] - up[x]);
+    }
+  }
+
+  // The current frame's samples: camera-frame points and their grey levels. Every second
+  // pixel (the blur has removed what lies between) where the image is large enough.
+  const PinholeCamera& cam = current.camera;
+  const int step = width >= 120 ? 2 : 1;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<float> grey;
+  for (int y = 1; y + 1 < height; y += step) {
+    const float* depth = current.depth_m.ptr<float>(y);
+    const float* g = cur_grey.ptr<float>(y);
+    for (int x = 1; x + 1 < width; x += step) {
+      const float d = depth[x];
+      if (!(d > 0) || !std::isfinite(d)) continue;
+      points.emplace_back(double{d} * (x - double{cam.cx}) / double{cam.fx}, double{d} * (y - double{cam.cy}) / double{cam.fy}, double{d});
+      grey.push_back(g[x]);
+    }
+  }
+  if (static_cast<int>(points.size()) < options.min_pixels) return result;
+
+  const PinholeCamera& pc = previous.camera;
+  const double fx = pc.fx, fy = pc.fy, cx = pc.cx, cy = pc.cy;
+  Eigen::Matrix3d rotation = result.previous_from_current.toRotationMatrix();
+  const Eigen::Vector3d& t = guess_translation_m;
+  double offset = 0;  // brightness: I_prev − I_cur
+  const double huber = options.huber;
+  bool converged = false;
+  for (int iteration = 0;; ++iteration) {
+    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+    double sum_wr2 = 0, sum_w = 0;
+    int used = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3d z = rotation * points[i];
+      const Eigen::Vector3d p = z + t;
+      if (!(p.z() > 1e-3)) continue;
+      const double u = fx * p.x() / p.z() + cx, v = fy * p.y() / p.z() + cy;
+      if (!(u >= 1 && v >= 1 && u < width - 2 && v < height - 2)) continue;
+      const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+      const float a = static_cast<float>(u - x0), c = static_cast<float>(v - y0);
+      if (Bilinear(prev_coverage, x0, y0, a, c) < 0.5f) continue;  // beside a hole or edge
+      const double r = double{Bilinear(prev_grey, x0, y0, a, c)} - double{grey[i]} - offset;
+      const double gx = Bilinear(grad_x, x0, y0, a, c), gy = double{Bilinear(grad_y, x0, y0, a, c)};
+      const double inv_z = 1.0 / p.z();
+      // d(u, v)/dp · dp/dω for p = Exp(ω)·R·X + t: dp/dω = −[R X]×.
+      const Eigen::Vector3d du_dp(fx * inv_z, 0, -fx * p.x() * inv_z * inv_z);
+      const Eigen::Vector3d dv_dp(0, fy * inv_z, -fy * p.y() * inv_z * inv_z);
+      const Eigen::Vector3d g = gx * du_dp + gy * dv_dp;  // dr/dp
+      Eigen::Vector4d jacobian;
+      jacobian.head<3>() = z.cross(g);  // gᵀ(−[z]×) = (z × g)ᵀ
+      jacobian[3] = -1;
+      const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
+      normal += w * jacobian * jacobian.transpose();
+      rhs -= w * r * jacobian;
+      sum_wr2 += w * r * r;
+      sum_w += w;
+      ++used;
+    }
+    result.pixels = used;
+    if (used < options.min_pixels) return result;
+    const double rms = std::sqrt(sum_wr2 / sum_w);
+    if (iteration == 0) result.rms_before = rms;
+    result.rms_after = rms;  // at the rotation reached so far
+    if (converged || iteration == options.iterations) break;
+    const Eigen::Vector4d delta = normal.ldlt().solve(rhs);
+    if (!delta.allFinite()) return result;
+    const Eigen::Vector3d omega = delta.head<3>();
+    if (omega.norm() > 0) rotation = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() * rotation;
+    offset += delta[3];
+    result.iterations = iteration + 1;
+    converged = omega.norm() < 1e-5;  // one more pass evaluates the residual there
+  }
+  const Eigen::Quaterniond estimate(rotation);
+  result.correction_deg = estimate.angularDistance(result.previous_from_current) * kRadToDeg;
+  result.ok = result.rms_after < result.rms_before && result.correction_deg <= options.max_rotation_deg;
+  if (result.ok) result.previous_from_current = estimate.normalized();
+  return result;
+}
+
+}  // namespace hw::reconstruct

@@ -1,0 +1,148 @@
+#include "reconstruct/rotation_prealign.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+namespace hw::reconstruct {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+// A 160×120 camera (the coarsest level of a 640×480 pyramid).
+PinholeCamera Camera() {
+  PinholeCamera c;
+  c.width = 160;
+  c.height = 120;
+  c.fx = c.fy = 131.25f;
+  c.cx = 79.5f;
+  c.cy = 59.5f;
+  return c;
+}
+
+// Grey level of the textured wall z = 2 m (previous camera frame) at (x, y), m: smooth
+// patterns of 17–40 cm, so that a few degrees stay inside one period.
+float Texture(double x, double y) {
+  return static_cast<float>(0.5 + 0.15 * std::sin(2 * std::numbers::pi * x / 0.4 + 0.3) +
+                            0.1 * std::cos(2 * std::numbers::pi * y / 0.3) +
+                            0.1 * std::sin(2 * std::numbers::pi * (x + y) / 0.17));
+}
+
+// The wall seen by a camera at previous_from_camera (exact ray-plane intersection): grey
+// and depth along the camera's axis. `offset` is added to every grey level (exposure).
+PrealignImage Render(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& t, float offset = 0) {
+  const PinholeCamera cam = Camera();
+  PrealignImage image{cv::Mat(cam.height, cam.width, CV_32FC1), cv::Mat(cam.height, cam.width, CV_32FC1), cam};
+  const Eigen::Matrix3d r = rotation.toRotationMatrix();
+  for (int y = 0; y < cam.height; ++y) {
+    for (int x = 0; x < cam.width; ++x) {
+      const Eigen::Vector3d ray((x - double{cam.cx}) / double{cam.fx}, (y - double{cam.cy}) / double{cam.fy}, 1);
+      const Eigen::Vector3d dir = r * ray;
+      const double s = (2.0 - t.z()) / dir.z();
+      const Eigen::Vector3d p = t + s * dir;
+      image.grey.at<float>(y, x) = Texture(p.x(), p.y()) + offset;
+      image.depth_m.at<float>(y, x) = static_cast<float>(s);  // ray.z = 1
+    }
+  }
+  return image;
+}
+
+double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) { return a.angularDistance(b) / kDeg; }
+
+TEST(PrealignRotation, RecoversAJerkBeyondThePredictionOnATexturedWall) {
+  // The rig turned 1.5° about y and 0.6° about x more than predicted (the prediction: no
+  // rotation), while moving 3 cm: 3.4 px at this level, beyond a sharp texture's basin.
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(1.5 * kDeg, Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(0.6 * kDeg, Eigen::Vector3d::UnitX()));
+  const Eigen::Vector3d t(0.03, -0.01, 0.005);
+  const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const PrealignImage current = Render(truth, t);
+  const RotationPrealignResult r =
+      PrealignRotation(previous, current, Eigen::Quaterniond::Identity(), t, RotationPrealignOptions{});
+  ASSERT_TRUE(r.ok);
+  // Both images sampled exactly; what is left is the blur's and the bilinear sampling's
+  // bias near the image border: a twentieth of a pixel (0.02°) allowed.
+  EXPECT_LT(AngleDeg(r.previous_from_current, truth), 0.02);
+  EXPECT_NEAR(r.correction_deg, AngleDeg(truth, Eigen::Quaterniond::Identity()), 0.02);
+  EXPECT_LT(r.rms_after, 0.1 * r.rms_before);
+  EXPECT_GT(r.pixels, 3000);  // every second pixel of 160×120, less what left the view
+}
+
+TEST(PrealignRotation, IgnoresAnExposureChangeAndHoles) {
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(-1.2 * kDeg, Eigen::Vector3d::UnitY()));
+  const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  PrealignImage current = Render(truth, Eigen::Vector3d::Zero(), 0.08f);  // 8 % brighter
+  // A hole (no depth, no colour: black as the registration leaves it) in each image.
+  current.depth_m(cv::Rect(20, 30, 40, 30)).setTo(0);
+  current.grey(cv::Rect(20, 30, 40, 30)).setTo(0);
+  previous.depth_m(cv::Rect(100, 60, 30, 40)).setTo(0);
+  previous.grey(cv::Rect(100, 60, 30, 40)).setTo(0);
+  const RotationPrealignResult r = PrealignRotation(previous, current, Eigen::Quaterniond::Identity(),
+                                                    Eigen::Vector3d::Zero(), RotationPrealignOptions{});
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(AngleDeg(r.previous_from_current, truth), 0.03);
+}
+
+TEST(PrealignRotation, KeepsTheGuessWhenNothingConstrainsOrTheCorrectionIsTooLarge) {
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(2.0 * kDeg, Eigen::Vector3d::UnitY()));
+  const Eigen::Quaterniond guess = Eigen::Quaterniond::Identity();
+  const PrealignImage previous = Render(guess, Eigen::Vector3d::Zero());
+  const PrealignImage current = Render(truth, Eigen::Vector3d::Zero());
+
+  // More than max_rotation_deg from the guess: refused, the guess returned.
+  RotationPrealignOptions tight;
+  tight.max_rotation_deg = 1;
+  RotationPrealignResult r = PrealignRotation(previous, current, guess, Eigen::Vector3d::Zero(), tight);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NEAR(r.correction_deg, 2.0, 0.05);  // what it found, reported
+  EXPECT_LT(AngleDeg(r.previous_from_current, guess), 1e-9);
+
+  // A uniform grey wall: no gradient, no rotation information — the guess stays.
+  PrealignImage flat_previous = previous, flat_current = current;
+  flat_previous.grey = cv::Mat(previous.grey.size(), CV_32FC1, cv::Scalar(0.4f));
+  flat_current.grey = cv::Mat(current.grey.size(), CV_32FC1, cv::Scalar(0.4f));
+  r = PrealignRotation(flat_previous, flat_current, guess, Eigen::Vector3d::Zero(), RotationPrealignOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_LT(AngleDeg(r.previous_from_current, guess), 1e-9);
+
+  // Too few pixels with depth.
+  PrealignImage empty = current;
+  empty.depth_m.setTo(0);
+  r = PrealignRotation(previous, empty, guess, Eigen::Vector3d::Zero(), RotationPrealignOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.pixels, 0);
+
+  // Off: nothing computed.
+  RotationPrealignOptions off;
+  off.iterations = 0;
+  r = PrealignRotation(previous, current, guess, Eigen::Vector3d::Zero(), off);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.iterations, 0);
+}
+
+TEST(RotationPrealignOptions, CheckNamesTheFieldValueAndConstraint) {
+  EXPECT_EQ(RotationPrealignOptions{}.Check(), "");
+  RotationPrealignOptions o;
+  o.iterations = 51;
+  EXPECT_THAT(o.Check(), HasSubstr("iterations: must be in [0, 50], got 51"));
+  o = {};
+  o.blur_sigma_px = -1;
+  EXPECT_THAT(o.Check(), HasSubstr("blur_sigma_px"));
+  o = {};
+  o.max_rotation_deg = 0;
+  EXPECT_THAT(o.Check(), HasSubstr("max_rotation_deg: must be in (0, 90] degrees, got 0"));
+  o = {};
+  o.huber = std::nan("");
+  EXPECT_THAT(o.Check(), HasSubstr("huber"));
+  o = {};
+  o.min_pixels = 5;
+  EXPECT_THAT(o.Check(), HasSubstr("min_pixels: must be >= 10, got 5"));
+}
+
+}  // namespace
+}  // namespace hw::reconstruct
