@@ -87,6 +87,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
   prealign.Int("iterations", r.prealign.iterations)
       .Number("blur_sigma_px", r.prealign.blur_sigma_px)
       .Number("max_rotation_deg", r.prealign.max_rotation_deg)
+      .Number("min_correction_deg", r.prealign.min_correction_deg)
       .Number("huber", r.prealign.huber)
       .Int("min_pixels", r.prealign.min_pixels);
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);

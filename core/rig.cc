@@ -276,6 +276,12 @@ std::string Rig::Check() const {
       }
     }
   }
+  if (!(rgb_readout_s >= 0 && rgb_readout_s <= kMaxReadoutS)) {
+    return "rolling_shutter_s.rgb: must be in [0, 0.1] s, got " + MessageNumber(rgb_readout_s);
+  }
+  if (!rgb && rgb_readout_s != 0) {
+    return "rolling_shutter_s.rgb: must be 0 when cameras.rgb is absent, got " + MessageNumber(rgb_readout_s);
+  }
   if (thermal.has_value() != thermal_settings.has_value()) {
     return thermal ? "thermal: required when cameras.thermal is present"
                    : "thermal: must be absent when cameras.thermal is absent";
@@ -299,7 +305,7 @@ Rig ParseRig(const std::string& yaml_text, const fs::path& path_for_errors) {
   reader.CheckVersion(root, 1);
   const Fields top = reader.Mapping(
       root, "", {"version", "depth_scale", "cameras", "extrinsics", "time_offset_s", "thermal",
-                  "depth_correction"});
+                  "depth_correction", "rolling_shutter_s"});
   top.Required("version");
 
   Rig rig;
@@ -360,6 +366,16 @@ Rig ParseRig(const std::string& yaml_text, const fs::path& path_for_errors) {
     reader.Fail("thermal", "given but cameras.thermal is absent", top.NodeFor("thermal"));
   }
 
+  if (top.Has("rolling_shutter_s")) {
+    const Fields readout = reader.Mapping(top.Required("rolling_shutter_s"), "rolling_shutter_s", {"rgb"});
+    if (readout.Has("rgb")) {
+      if (!rig.rgb) {
+        reader.Fail(readout.Path("rgb"), "given but cameras.rgb is absent", readout.NodeFor("rgb"));
+      }
+      rig.rgb_readout_s = reader.Number(readout.Required("rgb"), readout.Path("rgb"));
+    }
+  }
+
   if (top.Has("depth_correction")) {
     rig.depth_correction = ParseDepthCorrection(reader, top.Required("depth_correction"),
                                                 "depth_correction");
@@ -396,6 +412,10 @@ std::string FormatRig(const Rig& rig) {
     out += "time_offset_s:   # per stream: t_depth_clock = t_stream + time_offset_s\n";
     if (rig.rgb) out += "  rgb: " + FormatYamlDouble(rig.rgb_time_offset_s) + "\n";
     if (rig.thermal) out += "  thermal: " + FormatYamlDouble(rig.thermal_time_offset_s) + "\n";
+  }
+  if (rig.rgb && rig.rgb_readout_s > 0) {
+    out += "rolling_shutter_s:   # heatwave: colour readout, first row to last (frame time: middle row)\n";
+    out += "  rgb: " + FormatYamlDouble(rig.rgb_readout_s) + "\n";
   }
   if (rig.thermal_settings) {
     const ThermalSettings& s = *rig.thermal_settings;

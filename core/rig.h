@@ -64,6 +64,8 @@ struct ThermalSettings {
 inline constexpr double kMinDepthScale = 1, kMaxDepthScale = 1e6;
 inline constexpr double kMaxExtrinsicTranslationM = 10;
 inline constexpr double kMaxTimeOffsetS = 1e10;
+//   rolling_shutter_s.rgb  [0, 0.1] s: colour sensors read out in 10–35 ms
+inline constexpr double kMaxReadoutS = 0.1;
 
 struct Rig {
   double depth_scale = 1000.0;  // raw depth units per metre (TUM: 5000)
@@ -74,6 +76,10 @@ struct Rig {
   Rigid3d depth_from_thermal;  // identity when there is no thermal camera
   double rgb_time_offset_s = 0;      // t_depth_clock = t_rgb + rgb_time_offset_s
   double thermal_time_offset_s = 0;  // t_depth_clock = t_thermal + thermal_time_offset_s
+  // Rolling shutter of the colour camera: time from the first row's exposure to the last's,
+  // s, [0, 0.1] (0: global shutter); a frame's timestamp is the middle row's. A heatwave
+  // extension of rig.yaml: key rolling_shutter_s.rgb (optional, default 0).
+  double rgb_readout_s = 0;
   std::optional<ThermalSettings> thermal_settings;  // present iff thermal is
   // The depth camera's inverse-depth offset field (depth_correction.h), when calibrated
   // (`heatwave calibrate depth`). A heatwave extension of rig.yaml: key depth_correction.

@@ -277,6 +277,34 @@ TEST(RigTest, AbsurdValuesAreRefusedWithKeyValueRangeAndLine) {
   }
 }
 
+// The heatwave extension rolling_shutter_s (the colour camera's readout): written only when
+// not 0, read back bit for bit, checked against its range and its camera.
+TEST(RigTest, RollingShutterRoundTripsAndIsChecked) {
+  Rig rig = MakeRig(true, true);
+  EXPECT_EQ(FormatRig(rig).find("rolling_shutter_s"), std::string::npos);
+  rig.rgb_readout_s = 0.0271234;
+  const std::string text = FormatRig(rig);
+  EXPECT_THAT(text, HasSubstr("rolling_shutter_s:"));
+  EXPECT_THAT(text, HasSubstr("  rgb: 0.0271234\n"));
+  ExpectSameRig(rig, ParseRig(text, "rig.yaml"));
+
+  const std::string full = kFullRig;
+  EXPECT_THAT(RigError(full + "rolling_shutter_s:\n  rgb: 0.2\n"),
+              HasSubstr("rolling_shutter_s.rgb: must be in [0, 0.1] s, got 0.2"));
+  EXPECT_THAT(RigError(full + "rolling_shutter_s:\n  rgb: -0.01\n"),
+              HasSubstr("rolling_shutter_s.rgb: must be in [0, 0.1] s, got -0.01"));
+  EXPECT_THAT(RigError(full + "rolling_shutter_s:\n  thermal: 0.01\n"), HasSubstr("rolling_shutter_s: unknown key 'thermal'"));
+  EXPECT_THAT(RigError(FormatRig(MakeRig(false, true)) + "rolling_shutter_s:\n  rgb: 0.02\n"),
+              HasSubstr("rolling_shutter_s.rgb: given but cameras.rgb is absent"));
+  EXPECT_EQ(ParseRig(full + "rolling_shutter_s:\n  rgb: 0.1\n", "rig.yaml").rgb_readout_s, 0.1);
+
+  rig.rgb_readout_s = std::nan("");
+  EXPECT_THAT(rig.Check(), HasSubstr("rolling_shutter_s.rgb: must be in [0, 0.1] s"));
+  Rig no_rgb = MakeRig(false, true);
+  no_rgb.rgb_readout_s = 0.02;
+  EXPECT_THAT(no_rgb.Check(), HasSubstr("rolling_shutter_s.rgb: must be 0 when cameras.rgb is absent"));
+}
+
 TEST(RigTest, ValuesAtTheEdgesOfTheirRangesAreAccepted) {
   const std::string full = kFullRig;
   const std::vector<std::pair<std::string, std::string>> edges = {

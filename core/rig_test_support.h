@@ -106,6 +106,7 @@ inline void ExpectSameRig(const Rig& a, const Rig& b) {
   ExpectSameTransform(a.depth_from_thermal, b.depth_from_thermal);
   EXPECT_EQ(a.rgb_time_offset_s, b.rgb_time_offset_s);
   EXPECT_EQ(a.thermal_time_offset_s, b.thermal_time_offset_s);
+  EXPECT_EQ(a.rgb_readout_s, b.rgb_readout_s);
   ASSERT_EQ(a.thermal_settings.has_value(), b.thermal_settings.has_value());
   if (a.thermal_settings) {
     const ThermalSettings& s = *a.thermal_settings;

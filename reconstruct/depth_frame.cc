@@ -459,4 +459,14 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   return pyramid;
 }
 
+void SetIntensity(DepthPyramid& pyramid, const cv::Mat& rgb, int num_threads) {
+  assert(!pyramid.levels.empty());
+  assert(rgb.type() == CV_8UC3 && rgb.cols == pyramid.levels[0].camera.width &&
+         rgb.rows == pyramid.levels[0].camera.height);
+  pyramid.levels[0].intensity = Grey(rgb, num_threads);
+  for (size_t l = 1; l < pyramid.levels.size(); ++l) {
+    pyramid.levels[l].intensity = HalfIntensity(pyramid.levels[l - 1].intensity, num_threads);
+  }
+}
+
 }  // namespace hw::reconstruct

@@ -92,4 +92,9 @@ struct DepthPyramid {
 DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
                                const DepthFilterOptions& options, const cv::Mat& rgb = cv::Mat());
 
+// Replaces every level's intensity with that of `rgb` (registered to the depth pixels as
+// for BuildDepthPyramid): the colour registered again once the frame's motion is better
+// known. num_threads as DepthFilterOptions::num_threads. Asserts the size and type.
+void SetIntensity(DepthPyramid& pyramid, const cv::Mat& rgb, int num_threads);
+
 }  // namespace hw::reconstruct

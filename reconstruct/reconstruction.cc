@@ -47,16 +47,53 @@ constexpr double kMaxExtrapolationS = 0.5;
 // Views cast and ICP runs that refine a relocalisation from a keyframe, at most.
 constexpr int kRefinementPasses = 3;
 
+// The colour is registered again when the rotation pre-alignment moved the start more than
+// this, degrees: the registration's motion changes by about as much over the exposures' time
+// difference and the readout (up to a frame period), 0.25° being 2 px at 640 columns.
+constexpr double kReregisterDeg = 0.25;
+
+// The pyramid level the rotation pre-alignment runs on: the coarsest at least 80 pixels wide
+// (160×120 of a 640×480 frame; a 160×120 frame's 40×30 level held too little texture).
+const DepthLevel& PrealignLevel(const DepthPyramid& pyramid) {
+  for (auto level = pyramid.levels.rbegin(); level != pyramid.levels.rend(); ++level) {
+    if (level->camera.width >= 80) return *level;
+  }
+  return pyramid.levels.front();
+}
+
+// Bands of rows of a rolling-shutter colour image, each projected with one pose (registration
+// and integration): at 100°/s and a 27 ms readout a band spans 0.08°, under a pixel at 640
+// columns.
+constexpr int kColourBands = 32;
+
 }  // namespace
 
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads) {
+                       const core::Rigid3d& rgb_from_depth, int num_threads, double readout_s,
+                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at) {
   assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3);
   cv::Mat registered(depth_m.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  // The colour camera per band of rows (one pose when it has a global shutter): row v was
+  // exposed readout_s·(v − (H − 1)/2)/H after the frame's time.
+  struct Pose {
+    Eigen::Matrix3f r;
+    Eigen::Vector3f t;
+  };
+  const bool rolling = readout_s > 0 && rgb_from_depth_at != nullptr;
+  const int bands = rolling ? kColourBands : 1;
+  std::vector<Pose> band_pose(bands);
+  const float rows = static_cast<float>(rgb_camera.height);
+  for (int k = 0; k < bands; ++k) {
+    const double row = (k + 0.5) * rgb_camera.height / bands - 0.5;
+    const core::Rigid3d pose =
+        rolling ? rgb_from_depth_at(readout_s * (row - 0.5 * (rgb_camera.height - 1)) / rgb_camera.height)
+                : rgb_from_depth;
+    band_pose[k] = {pose.rotation.toRotationMatrix().cast<float>(), pose.translation.cast<float>()};
+  }
+  const Pose centre = {rgb_from_depth.rotation.toRotationMatrix().cast<float>(),
+                       rgb_from_depth.translation.cast<float>()};
   // In float, without Eigen or lround in the per-pixel loop (a full-size frame per frame).
-  const Eigen::Matrix3f R = rgb_from_depth.rotation.toRotationMatrix().cast<float>();
-  const Eigen::Vector3f t = rgb_from_depth.translation.cast<float>();
   const float inv_fx = 1.0f / depth_camera.fx, inv_fy = 1.0f / depth_camera.fy;
   const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
   ForEachBand(depth_m.rows, num_threads, [&](int y0, int y1) {
@@ -68,13 +105,30 @@ cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera
         const float z = depth_row[x];
         if (!(z > 0) || std::isinf(z)) continue;
         const float px = (static_cast<float>(x) - depth_camera.cx) * inv_fx * z, py = ray_y * z;
-        const float cx = R(0, 0) * px + R(0, 1) * py + R(0, 2) * z + t.x();
-        const float cy = R(1, 0) * px + R(1, 1) * py + R(1, 2) * z + t.y();
-        const float cz = R(2, 0) * px + R(2, 1) * py + R(2, 2) * z + t.z();
-        if (!(cz > 0)) continue;
-        const float inv_z = 1.0f / cz;
-        const float u = rgb_camera.fx * cx * inv_z + rgb_camera.cx;
-        const float v = rgb_camera.fy * cy * inv_z + rgb_camera.cy;
+        float u = 0, v = 0;
+        const auto project = [&](const Pose& p) {
+          const Eigen::Matrix3f& R = p.r;
+          const float cx = R(0, 0) * px + R(0, 1) * py + R(0, 2) * z + p.t.x();
+          const float cy = R(1, 0) * px + R(1, 1) * py + R(1, 2) * z + p.t.y();
+          const float cz = R(2, 0) * px + R(2, 1) * py + R(2, 2) * z + p.t.z();
+          if (!(cz > 0)) return false;
+          const float inv_z = 1.0f / cz;
+          u = rgb_camera.fx * cx * inv_z + rgb_camera.cx;
+          v = rgb_camera.fy * cy * inv_z + rgb_camera.cy;
+          return true;
+        };
+        if (!project(centre)) continue;
+        if (rolling) {
+          // The row the point lands on says when it was exposed; twice, as the pose of that
+          // time moves it to a neighbouring band at most.
+          const auto band = [&](float row) {  // clamped as a float: no overflow in the cast
+            return static_cast<int>(
+                std::clamp((row + 0.5f) * static_cast<float>(bands) / rows, 0.0f, static_cast<float>(bands - 1)));
+          };
+          int k = band(v);
+          if (!project(band_pose[k])) continue;
+          if (const int k2 = band(v); k2 != k && !project(band_pose[k = k2])) continue;
+        }
         // The nearest pixel, when inside the image (the test also rejects NaN).
         if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
         out[x] = rgb.at<cv::Vec3b>(static_cast<int>(v + 0.5f), static_cast<int>(u + 0.5f));
@@ -232,20 +286,28 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
                           (options_.integrate_colour || options_.icp.photometric_weight > 0);
   if (use_colour) {
     rgb_pinhole = rgb_undistorter_.UndistortColour(frame.rgb);
-    if (options_.icp.photometric_weight > 0) {
-      // The rig moved between the two exposures: register with the predicted motion.
-      core::Rigid3d depth_from_rgb_now = rig_.depth_from_rgb;
-      if (!trajectory_.empty()) {
-        depth_from_rgb_now = PoseAt(frame.timestamp_s).Inverse() *
-                             PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
-      }
-      registered_rgb = RegisterColour(undistorted, depth_undistorter_.pinhole(), rgb_pinhole,
-                                      rgb_undistorter_.pinhole(), depth_from_rgb_now.Inverse(),
-                                      options_.num_threads);
-    }
   }
-  const DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),
-                                                 options_.depth, registered_rgb);
+  // The colour registered to the depth pixels through the rig's motion between the two
+  // exposures (and, with a rolling shutter, during the colour readout): world_from_depth_at(t)
+  // on the depth clock.
+  const double readout_s = rig_.rgb_readout_s;
+  const auto register_colour = [&](const std::function<core::Rigid3d(double)>& world_from_depth_at) {
+    const core::Rigid3d depth_from_world = world_from_depth_at(frame.timestamp_s).Inverse();
+    const auto rgb_from_depth_at = [&](double delta_s) {
+      return (depth_from_world * world_from_depth_at(frame.rgb_timestamp_s + delta_s) * rig_.depth_from_rgb)
+          .Inverse();
+    };
+    return RegisterColour(undistorted, depth_undistorter_.pinhole(), rgb_pinhole, rgb_undistorter_.pinhole(),
+                          rgb_from_depth_at(0), options_.num_threads, readout_s, rgb_from_depth_at);
+  };
+  if (use_colour && options_.icp.photometric_weight > 0) {
+    // The predicted motion (none before the second frame).
+    registered_rgb = register_colour([this](double t) {
+      return trajectory_.empty() ? core::Rigid3d::Identity() : PoseAt(t);
+    });
+  }
+  DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),
+                                           options_.depth, registered_rgb);
   // Whatever becomes of this frame, the next one pre-aligns against it (only when it is
   // the last fused frame: PrealignedPrediction checks the time).
   struct KeepImage {
@@ -253,11 +315,11 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     const DepthPyramid& pyramid;
     double timestamp_s;
     ~KeepImage() {
-      const DepthLevel& coarsest = pyramid.levels.back();
-      if (coarsest.intensity.empty()) {
+      const DepthLevel& level = PrealignLevel(pyramid);
+      if (level.intensity.empty()) {
         self.previous_image_.reset();
       } else {
-        self.previous_image_ = PrealignImage{coarsest.intensity, coarsest.depth_m, coarsest.camera};
+        self.previous_image_ = PrealignImage{level.intensity, level.depth_m, level.camera};
         self.previous_image_timestamp_s_ = timestamp_s;
       }
     }
@@ -291,7 +353,23 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     // a loss instead of tracking from a prediction that no velocity supports.
     if (frame.timestamp_s - trajectory_.poses().back().timestamp_s > kMaxExtrapolationS) lost_ = true;
     const bool was_lost = lost_;
-    const bool ok = Track(pyramid, frame.timestamp_s, record, world_from_depth);
+    // Tracking starts from the prediction, its rotation pre-aligned; when that moved it, the
+    // colour is registered again with the motion from the last pose to that start (the
+    // exposures' time difference and the readout sweep turn with it).
+    core::Rigid3d prediction = PoseAt(frame.timestamp_s);
+    if (!lost_) {
+      prediction = PrealignedPrediction(pyramid, frame.timestamp_s, record);
+      if (!registered_rgb.empty() && record.prealign_deg > kReregisterDeg) {
+        const core::TimedPose last = trajectory_.poses().back();
+        const core::Rigid3d start_pose = prediction;
+        registered_rgb = register_colour([&](double t) {
+          return core::Interpolate(last.world_from_sensor, start_pose,
+                                   (t - last.timestamp_s) / (frame.timestamp_s - last.timestamp_s));
+        });
+        SetIntensity(pyramid, registered_rgb, options_.num_threads);
+      }
+    }
+    const bool ok = Track(pyramid, frame.timestamp_s, prediction, record, world_from_depth);
     record.track_ms = internal::MsSince(start);
     if (!ok) {
       lost_ = true;
@@ -345,8 +423,8 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   return frames_.back();
 }
 
-bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
-                           core::Rigid3d& world_from_depth) {
+bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, const core::Rigid3d& start,
+                           FrameRecord& record, core::Rigid3d& world_from_depth) {
   assert(model_.has_value());
   const auto& poses = trajectory_.poses();
   const core::Rigid3d last = poses.back().world_from_sensor;
@@ -373,7 +451,6 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, Fram
     // gate between two frames (measured: 45 mm and 1.8° per frame on a loop at 10 Hz, which
     // converged at the normal gate on 13 % inliers and was lost for 25 frames). With one
     // pose there is no velocity: the prediction is the last pose, tried once per gate.
-    const core::Rigid3d start = PrealignedPrediction(pyramid, timestamp_s, record);
     for (const IcpOptions* icp : {&options_.icp, &wide}) {
       if (icp == &wide && w == 1) break;
       attempts.push_back({start, *icp, poses.size() < 2, icp == &wide});
@@ -536,15 +613,15 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
                                                    FrameRecord& record) const {
   const core::Rigid3d prediction = PoseAt(timestamp_s);
   const auto& poses = trajectory_.poses();
-  const DepthLevel& coarsest = pyramid.levels.back();
+  const DepthLevel& level = PrealignLevel(pyramid);
   if (!options_.prealign.enabled() || options_.icp.photometric_weight <= 0 || !previous_image_ ||
-      coarsest.intensity.empty() || previous_image_timestamp_s_ != poses.back().timestamp_s ||
-      previous_image_->grey.size() != coarsest.intensity.size()) {
+      level.intensity.empty() || previous_image_timestamp_s_ != poses.back().timestamp_s ||
+      previous_image_->grey.size() != level.intensity.size()) {
     return prediction;
   }
   const core::Rigid3d& last = poses.back().world_from_sensor;
   const core::Rigid3d last_from_predicted = last.Inverse() * prediction;
-  const PrealignImage current{coarsest.intensity, coarsest.depth_m, coarsest.camera};
+  const PrealignImage current{level.intensity, level.depth_m, level.camera};
   const RotationPrealignResult aligned =
       PrealignRotation(*previous_image_, current, last_from_predicted.rotation, last_from_predicted.translation,
                        options_.prealign);
@@ -582,6 +659,16 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
     // The colour camera's pose at its own exposure time: interpolated between the last two
     // fused depth poses (this frame's included), extrapolated just beyond them.
     colour->world_from_camera = PoseAt(frame.rgb_timestamp_s) * rig_.depth_from_rgb;
+    // A rolling shutter: the pose of each band of rows at its own exposure time (the rows of
+    // the undistorted image stand for the sensor's, a few pixels apart at most).
+    if (rig_.rgb_readout_s > 0) {
+      const int bands = kColourBands, height = colour->camera.height;
+      for (int k = 0; k < bands; ++k) {
+        const double row = (k + 0.5) * height / bands - 0.5;
+        const double delta_s = rig_.rgb_readout_s * (row - 0.5 * (height - 1)) / height;
+        colour->world_from_camera_bands.push_back(PoseAt(frame.rgb_timestamp_s + delta_s) * rig_.depth_from_rgb);
+      }
+    }
     record.coloured = true;
   }
   cv::Mat depth_m = pyramid.raw_depth_m;

@@ -234,7 +234,9 @@ class Reconstruction {
   TriangleMesh ExtractMesh(MeshStats* stats = nullptr) const;
 
  private:
-  bool Track(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
+  // Tracks the frame (from `start`, the pre-aligned prediction, when not lost; relocalises
+  // when lost); true with world_from_depth set on success.
+  bool Track(const DepthPyramid& pyramid, double timestamp_s, const core::Rigid3d& start, FrameRecord& record,
              core::Rigid3d& world_from_depth);
   // The constant-velocity prediction at timestamp_s with its rotation replaced by the
   // pre-alignment of `pyramid`'s coarsest level against the previous frame's (when that
@@ -289,9 +291,15 @@ class Reconstruction {
 // colour image. Surfaces hidden from the colour camera by a nearer one take that one's
 // colour (a few pixels at depth edges with a 2–5 cm baseline). Non-finite depth counts as
 // none. num_threads: row bands run at once (0: hardware concurrency).
+// A rolling-shutter colour camera (readout_s > 0, rig.yaml rolling_shutter_s.rgb): row v was
+// exposed readout_s·(v − (H − 1)/2)/H after the frame's time, and rgb_from_depth_at(δ) gives
+// the colour camera then (δ in s; rgb_from_depth is δ = 0): each point is projected with the
+// pose of the rows it lands on (32 bands of rows), so that a rig turning during the readout
+// does not shear the registered colour.
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
                        const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads = 0);
+                       const core::Rigid3d& rgb_from_depth, int num_threads = 0, double readout_s = 0,
+                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at = nullptr);
 
 // Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with the rgb
 // frame nearest in time within 0.1 s (at that frame's depth-clock time) when with_rgb and its

@@ -57,6 +57,9 @@ std::string RotationPrealignOptions::Check() const {
   if (!(max_rotation_deg > 0 && max_rotation_deg <= 90)) {
     return OptionFail("max_rotation_deg", max_rotation_deg, "in (0, 90] degrees");
   }
+  if (!(min_correction_deg >= 0 && min_correction_deg < max_rotation_deg)) {
+    return OptionFail("min_correction_deg", min_correction_deg, "in [0, max_rotation_deg) degrees");
+  }
   if (!(huber > 0 && huber <= 1)) return OptionFail("huber", huber, "in (0, 1] grey levels");
   if (min_pixels < 10) return OptionFail("min_pixels", min_pixels, ">= 10");
   return "";
@@ -164,7 +167,8 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   }
   const Eigen::Quaterniond estimate(rotation);
   result.correction_deg = estimate.angularDistance(result.previous_from_current) * kRadToDeg;
-  result.ok = result.rms_after < result.rms_before && result.correction_deg <= options.max_rotation_deg;
+  result.ok = result.rms_after < result.rms_before && result.correction_deg >= options.min_correction_deg &&
+              result.correction_deg <= options.max_rotation_deg;
   if (result.ok) result.previous_from_current = estimate.normalized();
   return result;
 }

@@ -62,7 +62,7 @@ TEST(PrealignRotation, RecoversAJerkBeyondThePredictionOnATexturedWall) {
   const Eigen::Vector3d t(0.03, -0.01, 0.005);
   const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
   const PrealignImage current = Render(truth, t);
-  const RotationPrealignResult r =
+  RotationPrealignResult r =
       PrealignRotation(previous, current, Eigen::Quaterniond::Identity(), t, RotationPrealignOptions{});
   ASSERT_TRUE(r.ok);
   // Both images sampled exactly; what is left is the blur's and the bilinear sampling's
@@ -71,6 +71,13 @@ TEST(PrealignRotation, RecoversAJerkBeyondThePredictionOnATexturedWall) {
   EXPECT_NEAR(r.correction_deg, AngleDeg(truth, Eigen::Quaterniond::Identity()), 0.02);
   EXPECT_LT(r.rms_after, 0.1 * r.rms_before);
   EXPECT_GT(r.pixels, 3000);  // every second pixel of 160×120, less what left the view
+
+  // A prediction already within min_correction_deg (0.5°) is kept: found, not used.
+  const Eigen::Quaterniond close = truth * Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * kDeg, Eigen::Vector3d::UnitZ()));
+  r = PrealignRotation(previous, current, close, t, RotationPrealignOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_NEAR(r.correction_deg, 0.3, 0.02);
+  EXPECT_LT(AngleDeg(r.previous_from_current, close), 1e-9);
 }
 
 TEST(PrealignRotation, IgnoresAnExposureChangeAndHoles) {
@@ -136,6 +143,9 @@ TEST(RotationPrealignOptions, CheckNamesTheFieldValueAndConstraint) {
   o = {};
   o.max_rotation_deg = 0;
   EXPECT_THAT(o.Check(), HasSubstr("max_rotation_deg: must be in (0, 90] degrees, got 0"));
+  o = {};
+  o.min_correction_deg = 15;
+  EXPECT_THAT(o.Check(), HasSubstr("min_correction_deg: must be in [0, max_rotation_deg) degrees, got 15"));
   o = {};
   o.huber = std::nan("");
   EXPECT_THAT(o.Check(), HasSubstr("huber"));

@@ -127,6 +127,12 @@ struct FrameParams {
   float colour_fx, colour_fy, colour_cx, colour_cy;
   float colour_u_limit, colour_v_limit;
   int max_colour_weight;
+  // Rolling shutter (colour_bands 0: none): colour_from_camera of each band of rows, as
+  // structures of arrays (band_rotation[i][k]: element i, row-major, of band k's rotation).
+  int colour_bands;
+  float colour_band_scale;  // bands / image height: a row's band is (v + 0.5) · this
+  float band_rotation[9][kMaxColourBands];
+  float band_translation[3][kMaxColourBands];
   // Voxel steps along the world axes, in the camera frame (m).
   float step_x[3], step_y[3], step_z[3];
 };
@@ -192,8 +198,26 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
     const float qy = (r[3] * row.x[x] + (r[4] * row.y[x] + r[5] * pz)) + f.colour_translation[1];
     const float qz = (r[6] * row.x[x] + (r[7] * row.y[x] + r[8] * pz)) + f.colour_translation[2];
     if (!(qz > 0)) continue;
-    const float inv_qz = 1.0f / qz;
-    const float cu = f.colour_fx * qx * inv_qz + f.colour_cx, cv = f.colour_fy * qy * inv_qz + f.colour_cy;
+    float inv_qz = 1.0f / qz;
+    float cu = f.colour_fx * qx * inv_qz + f.colour_cx, cv = f.colour_fy * qy * inv_qz + f.colour_cy;
+    if (f.colour_bands > 0) {
+      // Projected again with the pose of the rows it landed on.
+      // Clamped as a float (NaN to band 0), as the SIMD kernel does.
+      float band = (cv + 0.5f) * f.colour_band_scale;
+      band = band > 0 ? band : 0.0f;
+      band = band < static_cast<float>(f.colour_bands - 1) ? band : static_cast<float>(f.colour_bands - 1);
+      const int k = static_cast<int>(band);
+      const float bx = (f.band_rotation[0][k] * row.x[x] + (f.band_rotation[1][k] * row.y[x] + f.band_rotation[2][k] * pz)) +
+                       f.band_translation[0][k];
+      const float by = (f.band_rotation[3][k] * row.x[x] + (f.band_rotation[4][k] * row.y[x] + f.band_rotation[5][k] * pz)) +
+                       f.band_translation[1][k];
+      const float bz = (f.band_rotation[6][k] * row.x[x] + (f.band_rotation[7][k] * row.y[x] + f.band_rotation[8][k] * pz)) +
+                       f.band_translation[2][k];
+      if (!(bz > 0)) continue;
+      inv_qz = 1.0f / bz;
+      cu = f.colour_fx * bx * inv_qz + f.colour_cx;
+      cv = f.colour_fy * by * inv_qz + f.colour_cy;
+    }
     if (!(cu > -0.5f && cu < f.colour_u_limit && cv > -0.5f && cv < f.colour_v_limit)) continue;
     const auto* rgb = f.colour_rgb + static_cast<size_t>(cv + 0.5f) * f.colour_step + 3 * static_cast<size_t>(cu + 0.5f);
     const int cw = voxel->colour_weight;
@@ -377,11 +401,34 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
       }
       const __m256 qx = q[0], qy = q[1], qz = q[2];
       paint = _mm256_and_ps(paint, _mm256_cmp_ps(qz, zero, _CMP_GT_OQ));
-      const __m256 inv_qz = _mm256_div_ps(unit, qz);
-      const __m256 cu = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fx), qx), inv_qz),
-                                      _mm256_set1_ps(f.colour_cx));
-      const __m256 cv = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fy), qy), inv_qz),
-                                      _mm256_set1_ps(f.colour_cy));
+      __m256 inv_qz = _mm256_div_ps(unit, qz);
+      __m256 cu = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fx), qx), inv_qz),
+                                _mm256_set1_ps(f.colour_cx));
+      __m256 cv = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fy), qy), inv_qz),
+                                _mm256_set1_ps(f.colour_cy));
+      if (f.colour_bands > 0 && _mm256_movemask_ps(paint) != 0) {
+        // Each lane projected again with its band's pose (gathered), as UpdateRowScalar;
+        // max_ps returns its second operand for a NaN: band 0, as there.
+        const __m256 row_band = _mm256_min_ps(
+            _mm256_max_ps(_mm256_mul_ps(_mm256_add_ps(cv, half), _mm256_set1_ps(f.colour_band_scale)), zero),
+            _mm256_set1_ps(static_cast<float>(f.colour_bands - 1)));
+        const __m256i k = _mm256_cvttps_epi32(row_band);
+        __m256 b[3];
+        for (int i = 0; i < 3; ++i) {
+          const __m256 bx = _mm256_i32gather_ps(f.band_rotation[3 * i], k, 4);
+          const __m256 by = _mm256_i32gather_ps(f.band_rotation[3 * i + 1], k, 4);
+          const __m256 bz = _mm256_i32gather_ps(f.band_rotation[3 * i + 2], k, 4);
+          const __m256 yz = _mm256_add_ps(_mm256_mul_ps(by, py), _mm256_mul_ps(bz, pz));
+          b[i] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, px), yz),
+                               _mm256_i32gather_ps(f.band_translation[i], k, 4));
+        }
+        paint = _mm256_and_ps(paint, _mm256_cmp_ps(b[2], zero, _CMP_GT_OQ));
+        inv_qz = _mm256_div_ps(unit, b[2]);
+        cu = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fx), b[0]), inv_qz),
+                           _mm256_set1_ps(f.colour_cx));
+        cv = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.colour_fy), b[1]), inv_qz),
+                           _mm256_set1_ps(f.colour_cy));
+      }
       paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cu, minus_half, _CMP_GT_OQ),
                                                  _mm256_cmp_ps(cu, _mm256_set1_ps(f.colour_u_limit), _CMP_LT_OQ)));
       paint = _mm256_and_ps(paint, _mm256_and_ps(_mm256_cmp_ps(cv, minus_half, _CMP_GT_OQ),
@@ -616,6 +663,16 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     f.colour_cy = colour->camera.cy;
     f.colour_u_limit = static_cast<float>(colour->camera.width) - 0.5f;
     f.colour_v_limit = static_cast<float>(colour->camera.height) - 0.5f;
+    const std::vector<core::Rigid3d>& bands = colour->world_from_camera_bands;
+    assert(bands.empty() || (bands.size() >= 2 && bands.size() <= static_cast<size_t>(kMaxColourBands)));
+    f.colour_bands = static_cast<int>(bands.size());
+    f.colour_band_scale = static_cast<float>(bands.size()) / static_cast<float>(colour->camera.height);
+    for (size_t k = 0; k < bands.size(); ++k) {
+      const core::Rigid3d band_from_camera = bands[k].Inverse() * world_from_camera;
+      const Eigen::Matrix3f br = band_from_camera.rotation.toRotationMatrix().cast<float>();
+      for (int i = 0; i < 9; ++i) f.band_rotation[i][k] = br(i / 3, i % 3);
+      for (int i = 0; i < 3; ++i) f.band_translation[i][k] = static_cast<float>(band_from_camera.translation[i]);
+    }
   }
   // Voxel steps along the world axes, in the camera frame.
   for (int i = 0; i < 3; ++i) {

@@ -128,7 +128,13 @@ struct ColourView {
   cv::Mat rgb;
   PinholeCamera camera;
   core::Rigid3d world_from_camera;
+  // A rolling shutter (empty: global): the camera's pose for each of N equal bands of rows,
+  // top band first, N in [2, kMaxColourBands]; world_from_camera is then the pose of the
+  // middle row, with which a voxel is projected first, to find the band whose pose projects
+  // it for good.
+  std::vector<core::Rigid3d> world_from_camera_bands;
 };
+inline constexpr int kMaxColourBands = 64;
 
 // The volume. Not thread-safe for concurrent calls; each call may use num_threads threads.
 class TsdfVolume {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -513,7 +514,8 @@ TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
 // also ends inside the view, and a fractional weight cap (weights that are not whole).
 // Integrates the same noisy frames with the AVX2 kernel and the scalar one and expects the
 // same bits in every voxel.
-void ExpectSimdWritesTheScalarBits(TsdfOptions options) {
+// colour_bands > 0: a rolling-shutter colour camera turning 0.3° about y per band of rows.
+void ExpectSimdWritesTheScalarBits(TsdfOptions options, int colour_bands = 0) {
   const PinholeCamera camera = SmallCamera();
   std::mt19937 random(7);
   std::normal_distribution<float> noise(0.0f, 0.003f);
@@ -545,6 +547,12 @@ void ExpectSimdWritesTheScalarBits(TsdfOptions options) {
     }
     colour.world_from_camera = pose * core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY())),
                                                     Eigen::Vector3d(0.025, 0.002, 0));
+    for (int k = 0; k < colour_bands; ++k) {
+      const double turn = 0.3 * (k - 0.5 * (colour_bands - 1)) * std::numbers::pi / 180;
+      colour.world_from_camera_bands.push_back(
+          colour.world_from_camera *
+          core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()));
+    }
     internal::integrate_simd = true;
     const IntegrateStats a = simd.Integrate(depth, camera, pose, &colour);
     internal::integrate_simd = false;
@@ -592,6 +600,54 @@ TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithTheNoiseBand) {
   options.noise.quadratic_per_m = 0.05;
   ASSERT_GT(options.TruncationAt(1.0f), 0.05f);
   ExpectSimdWritesTheScalarBits(options);
+}
+
+// ... and with a rolling-shutter colour camera (a pose per band of rows, gathered per lane).
+TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithARollingShutter) {
+  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  ExpectSimdWritesTheScalarBits(SmallOptions(2), 16);
+}
+
+// A rolling-shutter colour camera moving sideways during its readout: band k of its 4 bands
+// of rows (30 rows each) was exposed at x_k = 0.02 + 0.02 k m, the middle row at 0.05 m.
+// Each row of its image shows the wall z = 1 m red left of x = 0.05 m and blue right of it,
+// so the boundary lies at column 79.5 + 120 (0.05 − x_k) of band k. Projected with each
+// band's pose the boundary lands at x = 0.05 m on every row; with the middle row's pose
+// alone it would land at 0.08 m in the top band and 0.02 m in the bottom one.
+TEST(TsdfIntegrate, RollingShutterColourIsProjectedWithThePoseOfItsRows) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.0);
+  ColourView colour;
+  colour.camera = camera;
+  colour.rgb = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(255, 0, 0));
+  colour.world_from_camera = core::Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.05, 0, 0));
+  for (int k = 0; k < 4; ++k) {
+    const double x_k = 0.02 + 0.02 * k;
+    colour.world_from_camera_bands.emplace_back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x_k, 0, 0));
+    const double boundary = 79.5 + 120 * (0.05 - x_k);
+    for (int v = 30 * k; v < 30 * (k + 1); ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        if (u > boundary) colour.rgb.at<cv::Vec3b>(v, u) = cv::Vec3b(0, 0, 255);
+      }
+    }
+  }
+  const auto colour_at = [](const TsdfVolume& volume, float x, float y) {
+    const auto c = volume.ColourAt(Eigen::Vector3f(x, y, 1.0f));
+    return c.has_value() ? *c : Rgb8(1, 2, 3);
+  };
+  TsdfVolume rolling(SmallOptions());
+  rolling.Integrate(depth, camera, pose, &colour);
+  // Rows 12 and 108 (y = ∓0.4 m): bands 0 and 3.
+  for (const float y : {-0.4f, 0.4f}) {
+    EXPECT_EQ(colour_at(rolling, 0.035f, y), Rgb8(255, 0, 0)) << y;
+    EXPECT_EQ(colour_at(rolling, 0.065f, y), Rgb8(0, 0, 255)) << y;
+  }
+  colour.world_from_camera_bands.clear();
+  TsdfVolume global(SmallOptions());
+  global.Integrate(depth, camera, pose, &colour);
+  EXPECT_EQ(colour_at(global, 0.065f, -0.4f), Rgb8(255, 0, 0));  // boundary at 0.08 m there
+  EXPECT_EQ(colour_at(global, 0.035f, 0.4f), Rgb8(0, 0, 255));   // at 0.02 m there
 }
 
 TEST(TsdfIntegrate, NothingToFuse) {
