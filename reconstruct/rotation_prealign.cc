@@ -49,6 +49,57 @@ float Bilinear(const cv::Mat& image, int x0, int y0, float a, float c) {
 
 }  // namespace
 
+namespace internal {
+
+PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_px) {
+  PrealignImages out;
+  out.camera = previous.camera;
+  BlurValid(previous, blur_sigma_px, out.grey, out.coverage);
+  const int width = out.grey.cols, height = out.grey.rows;
+  out.grad_x = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+  out.grad_y = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+  for (int y = 1; y + 1 < height; ++y) {
+    const float* row = out.grey.ptr<float>(y);
+    const float* up = out.grey.ptr<float>(y - 1);
+    const float* down = out.grey.ptr<float>(y + 1);
+    float* gx = out.grad_x.ptr<float>(y);
+    float* gy = out.grad_y.ptr<float>(y);
+    for (int x = 1; x + 1 < width; ++x) {
+      gx[x] = 0.5f * (row[x + 1] - row[x - 1]);
+      gy[x] = 0.5f * (down[x] - up[x]);
+    }
+  }
+  return out;
+}
+
+bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t,
+                      const Eigen::Vector3d& point, float grey, double offset, double& residual,
+                      Eigen::Vector4d& jacobian) {
+  const PinholeCamera& pc = previous.camera;
+  const double fx = pc.fx, fy = pc.fy, cx = pc.cx, cy = pc.cy;
+  const int width = previous.grey.cols, height = previous.grey.rows;
+  const Eigen::Vector3d z = rotation * point;
+  const Eigen::Vector3d p = z + t;
+  if (!(p.z() > 1e-3)) return false;
+  const double u = fx * p.x() / p.z() + cx, v = fy * p.y() / p.z() + cy;
+  if (!(u >= 1 && v >= 1 && u < width - 2 && v < height - 2)) return false;
+  const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+  const float a = static_cast<float>(u - x0), c = static_cast<float>(v - y0);
+  if (Bilinear(previous.coverage, x0, y0, a, c) < 0.5f) return false;  // beside a hole or edge
+  residual = double{Bilinear(previous.grey, x0, y0, a, c)} - double{grey} - offset;
+  const double gx = Bilinear(previous.grad_x, x0, y0, a, c), gy = double{Bilinear(previous.grad_y, x0, y0, a, c)};
+  const double inv_z = 1.0 / p.z();
+  // d(u, v)/dp · dp/dω for p = Exp(ω)·R·X + t: dp/dω = −[R X]×.
+  const Eigen::Vector3d du_dp(fx * inv_z, 0, -fx * p.x() * inv_z * inv_z);
+  const Eigen::Vector3d dv_dp(0, fy * inv_z, -fy * p.y() * inv_z * inv_z);
+  const Eigen::Vector3d g = gx * du_dp + gy * dv_dp;  // dr/dp
+  jacobian.head<3>() = z.cross(g);                     // gᵀ(−[z]×) = (z × g)ᵀ
+  jacobian[3] = -1;
+  return true;
+}
+
+}  // namespace internal
+
 std::string RotationPrealignOptions::Check() const {
   using core::InRange;
   using core::OptionFail;
@@ -78,22 +129,9 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   const int width = previous.grey.cols, height = previous.grey.rows;
   if (width < 4 || height < 4) return result;
 
-  cv::Mat prev_grey, prev_coverage, cur_grey, cur_coverage;
-  BlurValid(previous, options.blur_sigma_px, prev_grey, prev_coverage);
+  const internal::PrealignImages images = internal::PreparePrevious(previous, options.blur_sigma_px);
+  cv::Mat cur_grey, cur_coverage;
   BlurValid(current, options.blur_sigma_px, cur_grey, cur_coverage);
-  // Central differences of the previous image (per pixel).
-  cv::Mat grad_x(height, width, CV_32FC1, cv::Scalar(0)), grad_y(height, width, CV_32FC1, cv::Scalar(0));
-  for (int y = 1; y + 1 < height; ++y) {
-    const float* row = prev_grey.ptr<float>(y);
-    const float* up = prev_grey.ptr<float>(y - 1);
-    const float* down = prev_grey.ptr<float>(y + 1);
-    float* gx = grad_x.ptr<float>(y);
-    float* gy = grad_y.ptr<float>(y);
-    for (int x = 1; x + 1 < width; ++x) {
-      gx[x] = 0.5f * (row[x + 1] - row[x - 1]);
-      gy[x] = 0.5f * (down[x] - up[x]);
-    }
-  }
 
   // The current frame's samples: camera-frame points and their grey levels. Every second
   // pixel (the blur has removed what lies between) where the image is large enough.
@@ -113,8 +151,6 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   }
   if (static_cast<int>(points.size()) < options.min_pixels) return result;
 
-  const PinholeCamera& pc = previous.camera;
-  const double fx = pc.fx, fy = pc.fy, cx = pc.cx, cy = pc.cy;
   Eigen::Matrix3d rotation = result.previous_from_current.toRotationMatrix();
   const Eigen::Vector3d& t = guess_translation_m;
   double offset = 0;  // brightness: I_prev − I_cur
@@ -126,24 +162,9 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
     double sum_wr2 = 0, sum_w = 0;
     int used = 0;
     for (size_t i = 0; i < points.size(); ++i) {
-      const Eigen::Vector3d z = rotation * points[i];
-      const Eigen::Vector3d p = z + t;
-      if (!(p.z() > 1e-3)) continue;
-      const double u = fx * p.x() / p.z() + cx, v = fy * p.y() / p.z() + cy;
-      if (!(u >= 1 && v >= 1 && u < width - 2 && v < height - 2)) continue;
-      const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-      const float a = static_cast<float>(u - x0), c = static_cast<float>(v - y0);
-      if (Bilinear(prev_coverage, x0, y0, a, c) < 0.5f) continue;  // beside a hole or edge
-      const double r = double{Bilinear(prev_grey, x0, y0, a, c)} - double{grey[i]} - offset;
-      const double gx = Bilinear(grad_x, x0, y0, a, c), gy = double{Bilinear(grad_y, x0, y0, a, c)};
-      const double inv_z = 1.0 / p.z();
-      // d(u, v)/dp · dp/dω for p = Exp(ω)·R·X + t: dp/dω = −[R X]×.
-      const Eigen::Vector3d du_dp(fx * inv_z, 0, -fx * p.x() * inv_z * inv_z);
-      const Eigen::Vector3d dv_dp(0, fy * inv_z, -fy * p.y() * inv_z * inv_z);
-      const Eigen::Vector3d g = gx * du_dp + gy * dv_dp;  // dr/dp
+      double r = 0;
       Eigen::Vector4d jacobian;
-      jacobian.head<3>() = z.cross(g);  // gᵀ(−[z]×) = (z × g)ᵀ
-      jacobian[3] = -1;
+      if (!internal::PrealignResidual(images, rotation, t, points[i], grey[i], offset, r, jacobian)) continue;
       const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
       normal += w * jacobian * jacobian.transpose();
       rhs -= w * r * jacobian;

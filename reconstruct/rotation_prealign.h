@@ -9,9 +9,10 @@
 // only (the translation stays at the prediction), on blurred images whose basin is many
 // pixels wide, gives ICP a start inside its own basin.
 //
-// Measured (README, Reconstruction: *Jerky motion*): on the full-size jerky `equipment` path
-// the tracker followed a 110°/s swing along a brick wall 48 mm, then 0.1–0.5 m, astray;
-// started from the true rotation it stayed within 13 mm.
+// Measured (README, Reconstruction: *Jerky motion, full size*): on the full-size jerky
+// `equipment` path the tracker followed a 110°/s swing along a brick wall 48 mm, then
+// 0.1–0.5 m, astray; started from the true rotation it stayed within 13 mm, and from this
+// alignment's (rendered without the colour camera's rolling shutter) within 26 mm, ATE 56 → 6 mm.
 
 #include <string>
 
@@ -70,7 +71,8 @@ struct RotationPrealignResult {
 
 // Aligns `current` to `previous` by rotation: minimises over R the robust sum over current
 // pixels p with depth d of (I_prev(π(R·d·K⁻¹p + t)) − I_cur(p) − b)², b a brightness offset
-// (auto exposure), every second pixel of each row and column. `guess` is the prediction of
+// (auto exposure), on every second pixel of each row and column of a level at least 120 px
+// wide (every pixel of a smaller one). `guess` is the prediction of
 // previous_from_current (its rotation the start, its translation t kept fixed). Both images
 // must have one size and camera (asserted). Never throws; ok = false when the images hold too
 // few usable pixels, the iteration diverges or leaves the allowed range.
@@ -78,5 +80,27 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
                                         const Eigen::Quaterniond& guess_rotation,
                                         const Eigen::Vector3d& guess_translation_m,
                                         const RotationPrealignOptions& options);
+
+namespace internal {
+
+// The previous frame as the alignment reads it: grey image and coverage blurred over the
+// pixels with depth, the grey image's central differences (per pixel), its camera.
+struct PrealignImages {
+  cv::Mat grey, coverage, grad_x, grad_y;
+  PinholeCamera camera;
+};
+
+// The previous frame's images as PrealignRotation aligns against them.
+PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_px);
+
+// One current point's residual I_prev(π(R·X + t)) − grey − offset (X: the point in the
+// current camera frame, m) and its derivative by [ω; offset], ω the left increment of R
+// (Exp(ω)·R); false when the point leaves the image or lands beside a hole (coverage < 0.5).
+// Exposed for the finite-difference test.
+bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t,
+                      const Eigen::Vector3d& point, float grey, double offset, double& residual,
+                      Eigen::Vector4d& jacobian);
+
+}  // namespace internal
 
 }  // namespace hw::reconstruct
