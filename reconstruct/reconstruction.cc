@@ -66,6 +66,14 @@ const DepthLevel& PrealignLevel(const DepthPyramid& pyramid) {
 // columns.
 constexpr int kColourBands = 32;
 
+// When band k of `bands` equal bands of rows of a rolling-shutter image `height` rows high
+// was exposed relative to the frame's time (its middle row), s: the band's middle row is
+// read readout_s · (row − (height − 1)/2) / height from it.
+double BandOffsetS(int k, int bands, int height, double readout_s) {
+  const double row = (k + 0.5) * height / bands - 0.5;
+  return readout_s * (row - 0.5 * (height - 1)) / height;
+}
+
 }  // namespace
 
 cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
@@ -85,10 +93,8 @@ cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera
   std::vector<Pose> band_pose(bands);
   const float rows = static_cast<float>(rgb_camera.height);
   for (int k = 0; k < bands; ++k) {
-    const double row = (k + 0.5) * rgb_camera.height / bands - 0.5;
     const core::Rigid3d pose =
-        rolling ? rgb_from_depth_at(readout_s * (row - 0.5 * (rgb_camera.height - 1)) / rgb_camera.height)
-                : rgb_from_depth;
+        rolling ? rgb_from_depth_at(BandOffsetS(k, bands, rgb_camera.height, readout_s)) : rgb_from_depth;
     band_pose[k] = {pose.rotation.toRotationMatrix().cast<float>(), pose.translation.cast<float>()};
   }
   const Pose centre = {rgb_from_depth.rotation.toRotationMatrix().cast<float>(),
@@ -664,8 +670,7 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
     if (rig_.rgb_readout_s > 0) {
       const int bands = kColourBands, height = colour->camera.height;
       for (int k = 0; k < bands; ++k) {
-        const double row = (k + 0.5) * height / bands - 0.5;
-        const double delta_s = rig_.rgb_readout_s * (row - 0.5 * (height - 1)) / height;
+        const double delta_s = BandOffsetS(k, bands, height, rig_.rgb_readout_s);
         colour->world_from_camera_bands.push_back(PoseAt(frame.rgb_timestamp_s + delta_s) * rig_.depth_from_rgb);
       }
     }
