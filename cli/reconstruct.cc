@@ -74,7 +74,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_residual_m", r.icp.max_residual_m)
       .Number("max_jump_m", r.icp.max_jump_m)
       .Number("max_jump_deg", r.icp.max_jump_deg)
-      .Number("photometric_weight", r.icp.photometric_weight);
+      .Number("photometric_weight", r.icp.photometric_weight)
+      .Bool("photometric_offset", r.icp.photometric_offset);
   raycast.Number("step_fraction", r.raycast.step_fraction)
       .Int("level", r.raycast_level)
       .Int("interval", r.raycast_interval)
@@ -89,7 +90,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_rotation_deg", r.prealign.max_rotation_deg)
       .Number("min_correction_deg", r.prealign.min_correction_deg)
       .Number("huber", r.prealign.huber)
-      .Int("min_pixels", r.prealign.min_pixels);
+      .Int("min_pixels", r.prealign.min_pixels)
+      .Int("scales", r.prealign.scales);
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
   keyframes.Int("candidates", r.keyframes.candidates)
       .Number("min_distance_m", r.keyframes.min_distance_m)
@@ -145,6 +147,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Int("keyframe", f.keyframe)
         .Bool("widened_gate", f.widened_gate)
         .Int("iterations", f.iterations)
+        .Number("photometric_offset", f.photometric_offset)
         .Number("prealign_deg", f.prealign_deg)
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
@@ -571,6 +574,10 @@ int RunReconstruct(int argc, char** argv) {
   app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
   app.add_option("--photometric-weight", r.icp.photometric_weight,
                  "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
+  app.add_option("--photometric-offset", r.icp.photometric_offset,
+                 "estimate a brightness offset between the model's grey levels and the frame's in ICP's colour "
+                 "term (auto exposure)")
+      ->capture_default_str();
   app.add_option("--icp-noise-depth", r.icp.noise_reference_depth_m,
                  "ICP residuals of a point at depth z count (this / z)x: depth noise grows with distance, m "
                  "(0: all alike; helps scenes at 1-2 m, hurts at 3-4 m: README)")
@@ -607,6 +614,10 @@ int RunReconstruct(int argc, char** argv) {
                  "before ICP, align each frame's coarse grey image to the previous frame's by rotation (a jerk "
                  "turns the rig past the constant-velocity prediction), this many Gauss-Newton iterations, "
                  "[0, 50] (0: off; needs colour)")
+      ->capture_default_str();
+  app.add_option("--prealign-scales", r.prealign.scales,
+                 "blur scales of the pre-alignment, coarse to fine, each twice the next one's blur, the "
+                 "iterations at each, [1, 4]")
       ->capture_default_str();
   app.add_option("--relocalisation-candidates", r.keyframes.candidates,
                  "after a loss that the last pose cannot bridge, try aligning from this many of the keyframes the "

@@ -43,8 +43,12 @@ struct Sums {
   double sum_r_sq = 0;  // unweighted, of inliers
   int inliers = 0;
   int valid = 0;  // live points with a normal
+  // Photometric pairs: Σ w (model − live grey level) before the offset, Σ w (Huber weights).
+  double photo_r = 0, photo_w = 0;
 
   void Add(const Sums& o) {
+    photo_r += o.photo_r;
+    photo_w += o.photo_w;
     for (int k = 0; k < 21; ++k) ata[k] += o.ata[k];
     for (int k = 0; k < 6; ++k) atb[k] += o.atb[k];
     sum_r_sq += o.sum_r_sq;
@@ -88,6 +92,7 @@ struct Pass {
   const float* live_intensity = nullptr;
   const float* model_intensity = nullptr;
   float photometric_weight = 0;
+  float photometric_offset = 0;  // grey levels subtracted from model − live
 };
 
 // Eight pixels at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
@@ -177,7 +182,7 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
   Sums sums;
   for (int y = y0; y < y1; ++y) {
     RowSums8 acc;
-    Float8 sum_r_sq = {};
+    Float8 sum_r_sq = {}, photo_r = {}, photo_w = {};
     Int8 inliers = {}, valid = {};
     const size_t row = live.Index(0, y);
     const float* points = live.points[row].data();
@@ -295,7 +300,12 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       const Float8 gcx = Masked8(MR[0] * gmx + MR[3] * gmy + MR[6] * gmz, in_patch);
       const Float8 gcy = Masked8(MR[1] * gmx + MR[4] * gmy + MR[7] * gmz, in_patch);
       const Float8 gcz = Masked8(MR[2] * gmx + MR[5] * gmy + MR[8] * gmz, in_patch);
-      const Float8 ri = Masked8(lambda * (model_i - live_i), in_patch);
+      const Float8 ri = Masked8(lambda * (model_i - live_i - pass.photometric_offset), in_patch);
+      {
+        const Float8 wphoto = Masked8(HuberWeight8(ri, Splat8(huber)), in_patch);
+        photo_r += wphoto * Masked8(model_i - live_i, in_patch);
+        photo_w += wphoto;
+      }
       const Float8 jac[6] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
                              p[0] * gcy - p[1] * gcx, gcx, gcy, gcz};
       acc.Add(jac, ri, Masked8(HuberWeight8(ri, Splat8(huber)), in_patch));
@@ -306,6 +316,8 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       sums.atb[a] += LaneSum(acc.s[21 + a]);
     }
     sums.sum_r_sq += LaneSum(sum_r_sq);
+    sums.photo_r += LaneSum(photo_r);
+    sums.photo_w += LaneSum(photo_w);
     for (int lane = 0; lane < 8; ++lane) {
       sums.inliers += inliers[lane];
       sums.valid += valid[lane];
@@ -558,6 +570,7 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
   core::Rigid3d estimate = initial_world_from_camera;
   Sums last;
   Matrix6d last_A = Matrix6d::Zero();
+  float photometric_offset = 0;  // carried from level to level
   for (int l = coarsest; l >= 0; --l) {
     if (options.iterations[l] == 0) continue;
     const PointMap& live_map = live.levels[l].map;
@@ -589,12 +602,18 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
       pass.live_intensity = live_intensity.ptr<float>();
       pass.model_intensity = model_intensity.data();
       pass.photometric_weight = static_cast<float>(options.photometric_weight);
+      pass.photometric_offset = photometric_offset;
     }
     for (int it = 0; it < options.iterations[l]; ++it) {
       pass.world_from_live = Affine::Of(estimate);
       const Affine model_from_live = Affine::Of(model_from_world * estimate);
       std::copy(model_from_live.r, model_from_live.r + 9, pass.model_from_live_r);
       last = Accumulate(pass, options.num_threads);
+      // The offset for the next pass: the weighted mean of this pass's differences.
+      if (options.photometric_offset && last.photo_w > 0) {
+        photometric_offset = std::clamp(static_cast<float>(last.photo_r / last.photo_w), -1.0f, 1.0f);
+        pass.photometric_offset = photometric_offset;
+      }
       last_A = NormalMatrix(last);
       ++result.iterations;
       if (last.inliers < 6) break;  // fewer equations than unknowns
@@ -612,6 +631,7 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
   result.world_from_camera = estimate;
   result.inliers = last.inliers;
   result.valid_points = last.valid;
+  result.photometric_offset = photometric_offset;
   result.residual_rms_m = last.inliers > 0 ? std::sqrt(last.sum_r_sq / last.inliers) : 0.0;
   result.information = last_A;
   if (last.inliers > 0) {

@@ -592,6 +592,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
   record.widened_gate = best_attempt->widened;
   record.keyframe = best_attempt->keyframe;
   record.iterations = best.iterations;
+  record.photometric_offset = best.photometric_offset;
   // From the prediction itself (not the pre-aligned start): how much the motion changed.
   const core::PoseError correction =
       core::ComparePoses(lost_ ? attempts.front().initial : PoseAt(timestamp_s), best.world_from_camera);

@@ -193,6 +193,8 @@ struct FrameRecord {
   // or the extrapolated pose).
   int keyframe = -1;
   int iterations = 0;
+  // Brightness offset of ICP's photometric term (IcpResult::photometric_offset), grey levels.
+  double photometric_offset = 0;
   // Rotation pre-alignment (ReconstructionOptions::prealign): how far it moved ICP's start
   // from the prediction, degrees; NaN when it did not run or was not accepted.
   double prealign_deg = std::numeric_limits<double>::quiet_NaN();

@@ -15,6 +15,7 @@ namespace hw::reconstruct {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+constexpr double kMaxBlurFraction = 0.04;
 
 // Grey image blurred over the pixels with depth only (normalised convolution: holes neither
 // darken nor brighten their surroundings), and the blurred coverage (1 inside the valid
@@ -113,6 +114,7 @@ std::string RotationPrealignOptions::Check() const {
   }
   if (!(huber > 0 && huber <= 1)) return OptionFail("huber", huber, "in (0, 1] grey levels");
   if (min_pixels < 10) return OptionFail("min_pixels", min_pixels, ">= 10");
+  if (scales < 1 || scales > 4) return OptionFail("scales", scales, "in [1, 4]");
   return "";
 }
 
@@ -129,62 +131,85 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   const int width = previous.grey.cols, height = previous.grey.rows;
   if (width < 4 || height < 4) return result;
 
-  const internal::PrealignImages images = internal::PreparePrevious(previous, options.blur_sigma_px);
-  cv::Mat cur_grey, cur_coverage;
-  BlurValid(current, options.blur_sigma_px, cur_grey, cur_coverage);
-
-  // The current frame's samples: camera-frame points and their grey levels. Every second
-  // pixel (the blur has removed what lies between) where the image is large enough.
+  // Coarse to fine in scale space: each scale doubles the blur of the next finer one. A
+  // brick wall's courses repeat every few pixels at this level, so a turn of several degrees
+  // beyond the prediction (a swing across a dropped frame: 4° measured) aligns the finest
+  // scale's images one course off; at the coarsest scale only the larger structures remain.
   const PinholeCamera& cam = current.camera;
   const int step = width >= 120 ? 2 : 1;
-  std::vector<Eigen::Vector3d> points;
-  std::vector<float> grey;
-  for (int y = 1; y + 1 < height; y += step) {
-    const float* depth = current.depth_m.ptr<float>(y);
-    const float* g = cur_grey.ptr<float>(y);
-    for (int x = 1; x + 1 < width; x += step) {
-      const float d = depth[x];
-      if (!(d > 0) || !std::isfinite(d)) continue;
-      points.emplace_back(double{d} * (x - double{cam.cx}) / double{cam.fx}, double{d} * (y - double{cam.cy}) / double{cam.fy}, double{d});
-      grey.push_back(g[x]);
-    }
-  }
-  if (static_cast<int>(points.size()) < options.min_pixels) return result;
-
   Eigen::Matrix3d rotation = result.previous_from_current.toRotationMatrix();
   const Eigen::Vector3d& t = guess_translation_m;
   double offset = 0;  // brightness: I_prev − I_cur
   const double huber = options.huber;
-  bool converged = false;
-  for (int iteration = 0;; ++iteration) {
-    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-    double sum_wr2 = 0, sum_w = 0;
-    int used = 0;
-    for (size_t i = 0; i < points.size(); ++i) {
-      double r = 0;
-      Eigen::Vector4d jacobian;
-      if (!internal::PrealignResidual(images, rotation, t, points[i], grey[i], offset, r, jacobian)) continue;
-      const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
-      normal += w * jacobian * jacobian.transpose();
-      rhs -= w * r * jacobian;
-      sum_wr2 += w * r * r;
-      sum_w += w;
-      ++used;
+  // The coarsest blur kept within kMaxBlurFraction of the image width: beyond that too few
+  // structures are left to align (an 80 px level gets two scales, a 160 px one three).
+  int scales = options.scales;
+  while (scales > 1 && options.blur_sigma_px * std::ldexp(1.0, scales - 1) > kMaxBlurFraction * width) --scales;
+  for (int scale = scales - 1; scale >= 0; --scale) {
+    const double sigma_px = options.blur_sigma_px * std::ldexp(1.0, scale);
+    const internal::PrealignImages images = internal::PreparePrevious(previous, sigma_px);
+    cv::Mat cur_grey, cur_coverage;
+    BlurValid(current, sigma_px, cur_grey, cur_coverage);
+
+    // The current frame's samples: camera-frame points and their grey levels. Every second
+    // pixel (the blur has removed what lies between) where the image is large enough.
+    std::vector<Eigen::Vector3d> points;
+    std::vector<float> grey;
+    for (int y = 1; y + 1 < height; y += step) {
+      const float* depth = current.depth_m.ptr<float>(y);
+      const float* g = cur_grey.ptr<float>(y);
+      for (int x = 1; x + 1 < width; x += step) {
+        const float d = depth[x];
+        if (!(d > 0) || !std::isfinite(d)) continue;
+        points.emplace_back(double{d} * (x - double{cam.cx}) / double{cam.fx},
+                            double{d} * (y - double{cam.cy}) / double{cam.fy}, double{d});
+        grey.push_back(g[x]);
+      }
     }
-    result.pixels = used;
-    if (used < options.min_pixels) return result;
-    const double rms = std::sqrt(sum_wr2 / sum_w);
-    if (iteration == 0) result.rms_before = rms;
-    result.rms_after = rms;  // at the rotation reached so far
-    if (converged || iteration == options.iterations) break;
-    const Eigen::Vector4d delta = normal.ldlt().solve(rhs);
-    if (!delta.allFinite()) return result;
-    const Eigen::Vector3d omega = delta.head<3>();
-    if (omega.norm() > 0) rotation = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() * rotation;
-    offset += delta[3];
-    result.iterations = iteration + 1;
-    converged = omega.norm() < 1e-5;  // one more pass evaluates the residual there
+    if (static_cast<int>(points.size()) < options.min_pixels) return result;
+
+    // The robust RMS and normal equations at a rotation and offset; false with too few pairs.
+    Eigen::Matrix4d normal;
+    Eigen::Vector4d rhs;
+    double rms = 0;
+    const auto evaluate = [&](const Eigen::Matrix3d& r_eval, double offset_eval) {
+      normal.setZero();
+      rhs.setZero();
+      double sum_wr2 = 0, sum_w = 0;
+      int used = 0;
+      for (size_t i = 0; i < points.size(); ++i) {
+        double r = 0;
+        Eigen::Vector4d jacobian;
+        if (!internal::PrealignResidual(images, r_eval, t, points[i], grey[i], offset_eval, r, jacobian)) continue;
+        const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
+        normal += w * jacobian * jacobian.transpose();
+        rhs -= w * r * jacobian;
+        sum_wr2 += w * r * r;
+        sum_w += w;
+        ++used;
+      }
+      result.pixels = used;
+      rms = used > 0 ? std::sqrt(sum_wr2 / sum_w) : 0.0;
+      return used >= options.min_pixels;
+    };
+    // Accepted or not by the finest scale's residual at the guess (no offset) and at the end.
+    if (scale == 0) {
+      if (!evaluate(result.previous_from_current.toRotationMatrix(), 0.0)) return result;
+      result.rms_before = rms;
+    }
+    bool converged = false;
+    for (int iteration = 0;; ++iteration) {
+      if (!evaluate(rotation, offset)) return result;
+      result.rms_after = rms;  // at the rotation reached so far
+      if (converged || iteration == options.iterations) break;
+      const Eigen::Vector4d delta = normal.ldlt().solve(rhs);
+      if (!delta.allFinite()) return result;
+      const Eigen::Vector3d omega = delta.head<3>();
+      if (omega.norm() > 0) rotation = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() * rotation;
+      offset += delta[3];
+      ++result.iterations;
+      converged = omega.norm() < 1e-5;  // one more pass evaluates the residual there
+    }
   }
   const Eigen::Quaterniond estimate(rotation);
   result.correction_deg = estimate.angularDistance(result.previous_from_current) * kRadToDeg;

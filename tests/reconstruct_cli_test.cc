@@ -77,7 +77,8 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\"",
-                          "\"keyframes\": {\"candidates\": 3", "\"prealign\": {\"iterations\": 10", "\"prealign_deg\": ", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1"}) {
+                          "\"keyframes\": {\"candidates\": 3", "\"prealign\": {\"iterations\": 10", "\"prealign_deg\": ", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1",
+                          "\"scales\": 3", "\"photometric_offset\": true", "\"photometric_offset\": "}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
@@ -309,6 +310,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                    " --prealign-iterations 51");
   EXPECT_EQ(prealign.exit_code, 2) << prealign.output;
   EXPECT_NE(prealign.output.find("prealign.iterations"), std::string::npos) << prealign.output;
+  const Result scales = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                 " --prealign-scales 0");
+  EXPECT_EQ(scales.exit_code, 2) << scales.output;
+  EXPECT_NE(scales.output.find("prealign.scales"), std::string::npos) << scales.output;
   const Result spacing = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                   " --keyframe-spacing 0");
   EXPECT_EQ(spacing.exit_code, 2) << spacing.output;
