@@ -1,5 +1,6 @@
 #include "reconstruct/rotation_prealign.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <numbers>
@@ -136,7 +137,7 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   // beyond the prediction (a swing across a dropped frame: 4° measured) aligns the finest
   // scale's images one course off; at the coarsest scale only the larger structures remain.
   const PinholeCamera& cam = current.camera;
-  const int step = width >= 120 ? 2 : 1;
+  const int base_step = width >= 120 ? 2 : 1;
   Eigen::Matrix3d rotation = result.previous_from_current.toRotationMatrix();
   const Eigen::Vector3d& t = guess_translation_m;
   double offset = 0;  // brightness: I_prev − I_cur
@@ -152,7 +153,9 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
     BlurValid(current, sigma_px, cur_grey, cur_coverage);
 
     // The current frame's samples: camera-frame points and their grey levels. Every second
-    // pixel (the blur has removed what lies between) where the image is large enough.
+    // pixel (the blur has removed what lies between) where the image is large enough, every
+    // fourth at a blur of 4× the finest.
+    const int step = base_step << std::max(0, scale - 1);
     std::vector<Eigen::Vector3d> points;
     std::vector<float> grey;
     for (int y = 1; y + 1 < height; y += step) {
