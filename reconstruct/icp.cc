@@ -301,14 +301,13 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       const Float8 gcy = Masked8(MR[1] * gmx + MR[4] * gmy + MR[7] * gmz, in_patch);
       const Float8 gcz = Masked8(MR[2] * gmx + MR[5] * gmy + MR[8] * gmz, in_patch);
       const Float8 ri = Masked8(lambda * (model_i - live_i - pass.photometric_offset), in_patch);
-      {
-        const Float8 wphoto = Masked8(HuberWeight8(ri, Splat8(huber)), in_patch);
-        photo_r += wphoto * Masked8(model_i - live_i, in_patch);
-        photo_w += wphoto;
-      }
+      const Float8 wi = Masked8(HuberWeight8(ri, Splat8(huber)), in_patch);
+      // For the next pass's offset: the pairs' weighted differences without this one.
+      photo_r += wi * Masked8(model_i - live_i, in_patch);
+      photo_w += wi;
       const Float8 jac[6] = {p[1] * gcz - p[2] * gcy, p[2] * gcx - p[0] * gcz,
                              p[0] * gcy - p[1] * gcx, gcx, gcy, gcz};
-      acc.Add(jac, ri, Masked8(HuberWeight8(ri, Splat8(huber)), in_patch));
+      acc.Add(jac, ri, wi);
     }
     int k = 0;
     for (int a = 0; a < 6; ++a) {

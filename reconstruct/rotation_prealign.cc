@@ -169,7 +169,12 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
         grey.push_back(g[x]);
       }
     }
-    if (static_cast<int>(points.size()) < options.min_pixels) return result;
+    // A coarser scale is only a start: one with too few samples (every fourth pixel of a
+    // frame with holes) or that fails is skipped, the finest decides.
+    if (static_cast<int>(points.size()) < options.min_pixels) {
+      if (scale > 0) continue;
+      return result;
+    }
 
     // The robust RMS and normal equations at a rotation and offset; false with too few pairs.
     Eigen::Matrix4d normal;
@@ -200,18 +205,33 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
       if (!evaluate(result.previous_from_current.toRotationMatrix(), 0.0)) return result;
       result.rms_before = rms;
     }
+    const Eigen::Matrix3d start_rotation = rotation;
+    const double start_offset = offset;
     bool converged = false;
+    bool failed = false;
     for (int iteration = 0;; ++iteration) {
-      if (!evaluate(rotation, offset)) return result;
+      if (!evaluate(rotation, offset)) {
+        failed = true;
+        break;
+      }
       result.rms_after = rms;  // at the rotation reached so far
       if (converged || iteration == options.iterations) break;
       const Eigen::Vector4d delta = normal.ldlt().solve(rhs);
-      if (!delta.allFinite()) return result;
+      if (!delta.allFinite()) {
+        failed = true;
+        break;
+      }
       const Eigen::Vector3d omega = delta.head<3>();
       if (omega.norm() > 0) rotation = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() * rotation;
       offset += delta[3];
       ++result.iterations;
       converged = omega.norm() < 1e-5;  // one more pass evaluates the residual there
+    }
+    if (failed) {
+      if (scale == 0) return result;
+      // Back to where this scale started: its run led somewhere the samples do not cover.
+      rotation = start_rotation;
+      offset = start_offset;
     }
   }
   const Eigen::Quaterniond estimate(rotation);

@@ -80,8 +80,9 @@ struct RotationPrealignResult {
 // (auto exposure), on every second pixel of each row and column of a level at least 120 px
 // wide (every pixel of a smaller one), coarse to fine over options.scales blur scales (σ
 // blur_sigma_px · 2^k, the coarsest kept within 4 % of the width: fewer scales on a small
-// level), each starting from the last one's rotation and offset; the residual test compares
-// the finest scale's residual at the guess with its residual at the end. `guess` is the prediction of
+// level), each starting from the last one's rotation and offset (a coarser scale with too
+// few samples, or whose iteration fails, is skipped); the residual test compares the finest
+// scale's residual at the guess with its residual at the end. `guess` is the prediction of
 // previous_from_current (its rotation the start, its translation t kept fixed). Both images
 // must have one size and camera (asserted). Never throws; ok = false when the images hold too
 // few usable pixels, the iteration diverges or leaves the allowed range.

@@ -124,6 +124,26 @@ TEST(PrealignRotation, AlignsCoarseToFineAcrossRepeatingBrickCourses) {
   EXPECT_GT(AngleDeg(fine.previous_from_current, truth), 1.0);
 }
 
+TEST(PrealignRotation, SkipsACoarseScaleWithTooFewSamples) {
+  // Depth on every fourth column only (a structured-light pattern's dropouts): the coarsest
+  // scale samples every fourth pixel from column 1 and meets none of them; the finer scales,
+  // every second from column 1, meet half. The coarse scale is skipped, not the alignment.
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(-1.5 * kDeg, Eigen::Vector3d::UnitY()));
+  const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  PrealignImage current = Render(truth, Eigen::Vector3d::Zero());
+  for (int y = 0; y < current.depth_m.rows; ++y) {
+    for (int x = 0; x < current.depth_m.cols; ++x) {
+      if (x % 4 != 3) current.depth_m.at<float>(y, x) = 0;
+    }
+  }
+  const RotationPrealignResult r = PrealignRotation(previous, current, Eigen::Quaterniond::Identity(),
+                                                    Eigen::Vector3d::Zero(), RotationPrealignOptions{});
+  ASSERT_TRUE(r.ok);
+  // The current image's blur now mixes grey levels over the stripes' gaps (normalised over
+  // a quarter of the pixels): 0.05° allowed, two and a half times the full image's bound.
+  EXPECT_LT(AngleDeg(r.previous_from_current, truth), 0.05);
+}
+
 TEST(PrealignRotation, IgnoresAnExposureChangeAndHoles) {
   const Eigen::Quaterniond truth(Eigen::AngleAxisd(-1.2 * kDeg, Eigen::Vector3d::UnitY()));
   const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
