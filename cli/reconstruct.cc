@@ -91,7 +91,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("min_correction_deg", r.prealign.min_correction_deg)
       .Number("huber", r.prealign.huber)
       .Int("min_pixels", r.prealign.min_pixels)
-      .Int("scales", r.prealign.scales);
+      .Int("scales", r.prealign.scales)
+      .Number("max_depth_misfit_ratio", r.prealign.max_depth_misfit_ratio);
   dynamic.Number("margin_m", r.dynamic.margin_m).Number("margin_fraction", r.dynamic.margin_fraction);
   keyframes.Int("candidates", r.keyframes.candidates)
       .Number("min_distance_m", r.keyframes.min_distance_m)
@@ -106,6 +107,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Bool("integrate_colour", r.integrate_colour)
       .Number("min_valid_depth_fraction", r.min_valid_depth_fraction)
       .Number("relocalisation_widening", r.relocalisation_widening)
+      .Number("relocalisation_max_conflict", r.relocalisation_max_conflict)
       .Number("max_residual_ratio", r.max_residual_ratio)
       .Number("max_condition_ratio", r.max_condition_ratio)
       .Int("num_threads", r.num_threads)
@@ -134,7 +136,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
       .Bool("coloured", f.coloured)
       .Int("dynamic_pixels", f.dynamic_pixels)
       .Int("carved_points", f.carved_points)
-      .Number("valid_depth_fraction", f.valid_depth_fraction);
+      .Number("valid_depth_fraction", f.valid_depth_fraction)
+      .Number("model_conflict", f.model_conflict);
   if (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered ||
       f.status == FrameStatus::kLost) {
     o.String("icp", reconstruct::IcpStatusName(f.icp_status))
@@ -147,8 +150,10 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Int("keyframe", f.keyframe)
         .Bool("widened_gate", f.widened_gate)
         .Int("iterations", f.iterations)
+        .Int("conflict_rejections", f.conflict_rejections)
         .Number("photometric_offset", f.photometric_offset)
         .Number("prealign_deg", f.prealign_deg)
+        .Bool("prealign_rejected_by_depth", f.prealign_rejected_by_depth)
         .Number("correction_m", f.correction_m)
         .Number("correction_deg", f.correction_deg);
   }
@@ -180,6 +185,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
   summary.Int("fused", r.fused).Int("tracked", r.tracked).Int("recovered", r.recovered)
       .Int("posed", r.posed).Int("unposed", r.unposed).Int("held", r.held)
       .Int("widened", r.widened)
+      .Int("relocalisations_rejected", r.relocalisations_rejected)
+      .Int("prealign_rejected_by_depth", r.prealign_rejected_by_depth)
       .Int("keyframes", r.keyframes)
       .Int("recovered_from_keyframe", r.recovered_from_keyframe)
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
@@ -386,6 +393,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.held += f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.widened += f.status == FrameStatus::kTracked && f.widened_gate;
+    r.relocalisations_rejected += f.conflict_rejections;
+    r.prealign_rejected_by_depth += f.prealign_rejected_by_depth;
     r.lost += f.status == FrameStatus::kLost;
     r.no_depth += f.status == FrameStatus::kNoDepth;
     r.posed += f.status == FrameStatus::kPosed;
@@ -492,6 +501,17 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
     out += core::StringPrintf("Tracking   %d of the %d recovered frames relocalised from a keyframe's pose "
                               "(%d keyframes kept; --relocalisation-candidates)\n",
                               r.recovered_from_keyframe, r.recovered, r.keyframes);
+  }
+  if (r.relocalisations_rejected > 0) {
+    out += core::StringPrintf("Tracking   %d relocalisation candidates rejected: the live depth contradicted the "
+                              "model seen from there (--relocalisation-max-conflict)\n",
+                              r.relocalisations_rejected);
+  }
+  if (r.prealign_rejected_by_depth > 0) {
+    out += core::StringPrintf("Tracking   %d rotation pre-alignments not used: the depth disagreed with the "
+                              "rotation the grey images gave (something moving in view?) "
+                              "(--prealign-max-depth-misfit-ratio)\n",
+                              r.prealign_rejected_by_depth);
   }
   if (r.held > 0) {
     out += core::StringPrintf("Tracking   %d frames with directions the geometry left free held at the "
@@ -619,9 +639,17 @@ int RunReconstruct(int argc, char** argv) {
                  "blur scales of the pre-alignment, coarse to fine, each twice the next one's blur, the "
                  "iterations at each, [1, 4]")
       ->capture_default_str();
+  app.add_option("--prealign-max-depth-misfit-ratio", r.prealign.max_depth_misfit_ratio,
+                 "the pre-aligned rotation is used only when the frame's depth meets the previous frame's no "
+                 "worse than this times at the prediction (mean |dz|), >= 1 (0: no depth check)")
+      ->capture_default_str();
   app.add_option("--relocalisation-candidates", r.keyframes.candidates,
                  "after a loss that the last pose cannot bridge, try aligning from this many of the keyframes the "
                  "frame looks most alike, [0, 10] (0: no keyframes)")
+      ->capture_default_str();
+  app.add_option("--relocalisation-max-conflict", r.relocalisation_max_conflict,
+                 "a relocalised pose is accepted only when at most this fraction of the live depth stands in "
+                 "front of the model or sees through it (or 3x the recent frames' median), [0, 1] (1: off)")
       ->capture_default_str();
   app.add_option("--keyframe-spacing", r.keyframes.min_distance_m,
                  "a tracked frame farther than this from every keyframe becomes one, m")->capture_default_str();

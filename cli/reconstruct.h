@@ -90,6 +90,8 @@ struct ReconstructCommandResult {
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
   int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)
+  int relocalisations_rejected = 0;  // candidates rejected for model conflict (FrameRecord)
+  int prealign_rejected_by_depth = 0;  // frames whose pre-aligned rotation the depth contradicted
   int keyframes = 0;                // kept for relocalisation (Reconstruction::keyframes)
   int recovered_from_keyframe = 0;  // recovered frames relocalised from a keyframe's pose
   int raycasts = 0;  // frames after which the model view was raycast (raycast_interval)

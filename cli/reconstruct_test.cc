@@ -20,5 +20,31 @@ TEST(ReconstructSummary, SaysWhichRecoveriesCameFromKeyframes) {
       << summary;
 }
 
+// ... and how many relocalisation candidates the model's free space rejected, only when any.
+TEST(ReconstructSummary, SaysHowManyRelocalisationsTheModelRejected) {
+  ReconstructCommandResult r;
+  r.depth_frames = r.fused = r.tracked = 10;
+  EXPECT_EQ(FormatReconstructSummary(r).find("relocalisation candidates"), std::string::npos);
+  r.relocalisations_rejected = 4;
+  const std::string summary = FormatReconstructSummary(r);
+  EXPECT_NE(summary.find("Tracking   4 relocalisation candidates rejected: the live depth contradicted the model "
+                         "seen from there (--relocalisation-max-conflict)"),
+            std::string::npos)
+      << summary;
+}
+
+// ... and how many pre-aligned rotations the depth refused, only when any.
+TEST(ReconstructSummary, SaysHowManyPrealignmentsTheDepthRefused) {
+  ReconstructCommandResult r;
+  r.depth_frames = r.fused = r.tracked = 10;
+  EXPECT_EQ(FormatReconstructSummary(r).find("pre-alignments"), std::string::npos);
+  r.prealign_rejected_by_depth = 3;
+  const std::string summary = FormatReconstructSummary(r);
+  EXPECT_NE(summary.find("Tracking   3 rotation pre-alignments not used: the depth disagreed with the rotation the "
+                         "grey images gave"),
+            std::string::npos)
+      << summary;
+}
+
 }  // namespace
 }  // namespace hw::cli

@@ -136,4 +136,26 @@ std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const Pinh
   return seen_through;
 }
 
+double ModelConflict::Fraction() const {
+  return (depth_pixels > 0 ? static_cast<double>(in_front) / depth_pixels : 0.0) +
+         (model_points > 0 ? static_cast<double>(seen_through) / model_points : 0.0);
+}
+
+ModelConflict MeasureModelConflict(const cv::Mat& depth_m, const PinholeCamera& camera,
+                                   const core::Rigid3d& world_from_depth, const PointMap& model,
+                                   const PinholeCamera& model_camera, const core::Rigid3d& world_from_model,
+                                   const DynamicMaskOptions& options, int num_threads) {
+  ModelConflict c;
+  c.depth_pixels = cv::countNonZero(depth_m > 0);
+  c.model_points = static_cast<int>(std::count_if(model.points.begin(), model.points.end(),
+                                                   [](const Eigen::Vector3f& p) { return IsValid(p); }));
+  if (!options.enabled()) return c;
+  cv::Mat masked = depth_m.clone();
+  c.in_front = MaskInFrontOfModel(masked, camera, world_from_depth, model, model_camera, world_from_model, options,
+                                  num_threads);
+  c.seen_through =
+      static_cast<int>(ModelSeenThrough(depth_m, camera, world_from_depth, model, options, num_threads).size());
+  return c;
+}
+
 }  // namespace hw::reconstruct

@@ -61,4 +61,27 @@ std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const Pinh
                                               const core::Rigid3d& world_from_depth, const PointMap& model,
                                               const DynamicMaskOptions& options, int num_threads = 0);
 
+// How much a depth frame at a pose contradicts a model view: its pixels standing in front of
+// the model's surface (MaskInFrontOfModel) and the model's points it sees through
+// (ModelSeenThrough), each over what could be compared. At the right pose in a static scene
+// both are near 0 (edges, noise beyond the margins); at a wrong pose that ICP still converged
+// on (a relocalisation one part over along a row of alike parts, a wall slid along) the live
+// depth crosses space the model saw empty — measured: 0–2 % at tracked poses on the 160×120
+// test scans, under 0.01 % on a full-size sweep, 5–9 % at relocalisations 0.25 m off.
+struct ModelConflict {
+  int in_front = 0;       // depth pixels in front of the model's surface
+  int depth_pixels = 0;   // depth pixels with a measurement
+  int seen_through = 0;   // model points the depth saw through
+  int model_points = 0;   // model points with a surface
+  // in_front / depth_pixels + seen_through / model_points (0 when nothing to compare).
+  double Fraction() const;
+};
+// Both counts for the depth frame (CV_32FC1 metres, `camera` at world_from_depth) against
+// `model` (a raycast at world_from_model through model_camera), with the margins of
+// `options` (off: all zero but the totals). Leaves depth_m unchanged. Asserts as above.
+ModelConflict MeasureModelConflict(const cv::Mat& depth_m, const PinholeCamera& camera,
+                                   const core::Rigid3d& world_from_depth, const PointMap& model,
+                                   const PinholeCamera& model_camera, const core::Rigid3d& world_from_model,
+                                   const DynamicMaskOptions& options, int num_threads = 0);
+
 }  // namespace hw::reconstruct

@@ -86,6 +86,58 @@ TEST(DynamicMask, ComparesAlongTheModelViewWhenTheCameraMoved) {
   }
 }
 
+// A wall 2 m away with a pillar 0.5 m in front of it (model and live alike): at the pose
+// the frame was taken from nothing conflicts; placed 0.2 m to the side (a relocalisation one
+// pillar over), the live pillar stands in front of the model's wall and the live wall behind
+// the model's pillar.
+TEST(DynamicMask, ModelConflictIsZeroAtTheTruePoseAndLargeAtAWrongOne) {
+  const PinholeCamera camera{64, 48, 50, 50, 31.5f, 23.5f};
+  PointMap model = WallModel(camera, 2.0f);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(2.0f));
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 24; x < 36; ++x) {
+      model.points[model.Index(x, y)] = camera.Unproject(static_cast<float>(x), static_cast<float>(y), 1.5f);
+      depth.at<float>(y, x) = 1.5f;
+    }
+  }
+  const DynamicMaskOptions options;
+  const ModelConflict at_truth =
+      MeasureModelConflict(depth, camera, core::Rigid3d(), model, camera, core::Rigid3d(), options, 2);
+  EXPECT_EQ(at_truth.in_front, 0);
+  EXPECT_EQ(at_truth.seen_through, 0);
+  EXPECT_EQ(at_truth.depth_pixels, 64 * 48);
+  EXPECT_EQ(at_truth.model_points, 64 * 48);
+  EXPECT_EQ(at_truth.Fraction(), 0.0);
+
+  core::Rigid3d wrong;
+  wrong.translation = Eigen::Vector3d(0.2, 0, 0);  // 6.7 px at the pillar, 5 px at the wall
+  const cv::Mat before = depth.clone();
+  const ModelConflict off = MeasureModelConflict(depth, camera, wrong, model, camera, core::Rigid3d(), options, 2);
+  EXPECT_EQ(cv::norm(depth, before, cv::NORM_INF), 0);  // the frame is left as it was
+  // The two measures it combines, on the same inputs.
+  cv::Mat masked = depth.clone();
+  EXPECT_EQ(off.in_front, MaskInFrontOfModel(masked, camera, wrong, model, camera, core::Rigid3d(), options, 1));
+  EXPECT_EQ(off.seen_through, static_cast<int>(ModelSeenThrough(depth, camera, wrong, model, options, 1).size()));
+  // Analytic: the live pillar (columns 24–35) lands 6.67 px right in the model view, columns
+  // 31–42; those whose 3×3 neighbourhood misses the model's pillar (37–42: 6 columns) stand
+  // 0.5 m in front of its wall, on 46 rows (the border rows lack a neighbour). The model's
+  // pillar lands 6.67 px left in the frame, columns 17–28; those whose 3×3 neighbourhood is
+  // all live wall (17–22: 6 columns) are seen through, on 46 rows (the border excluded).
+  EXPECT_EQ(off.in_front, 6 * 46);
+  EXPECT_EQ(off.seen_through, 6 * 46);
+  EXPECT_DOUBLE_EQ(off.Fraction(), static_cast<double>(off.in_front) / (64 * 48) +
+                                       static_cast<double>(off.seen_through) / (64 * 48));
+  EXPECT_GT(off.Fraction(), 0.1);
+
+  // Off: nothing is compared, the totals are still counted.
+  DynamicMaskOptions none;
+  none.margin_m = none.margin_fraction = 0;
+  const ModelConflict unchecked = MeasureModelConflict(depth, camera, wrong, model, camera, core::Rigid3d(), none);
+  EXPECT_EQ(unchecked.in_front + unchecked.seen_through, 0);
+  EXPECT_EQ(unchecked.depth_pixels, 64 * 48);
+  EXPECT_EQ(unchecked.Fraction(), 0.0);
+}
+
 TEST(DynamicMask, OptionsCheckNamesTheField) {
   DynamicMaskOptions o;
   o.margin_m = -1;

@@ -481,6 +481,8 @@ std::string IcpStatusName(IcpStatus status) {
       return "large_residual";
     case IcpStatus::kImplausibleJump:
       return "implausible_jump";
+    case IcpStatus::kModelConflict:
+      return "model_conflict";
   }
   assert(false && "unknown IcpStatus");
   return "unknown";

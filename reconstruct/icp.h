@@ -125,6 +125,9 @@ enum class IcpStatus {
   kIllConditioned,   // more than max_held_directions directions weaker than largest / max_condition
   kLargeResidual,    // inlier RMS above max_residual_m
   kImplausibleJump,  // change from the initial pose above max_jump_m / max_jump_deg
+  // Set by the pipeline, not by AlignToModel: a relocalised pose whose live depth
+  // contradicts the model's free space (ReconstructionOptions::relocalisation_max_conflict).
+  kModelConflict,
 };
 std::string IcpStatusName(IcpStatus status);  // "ok", "too_few_inliers", ...
 

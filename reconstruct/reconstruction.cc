@@ -46,6 +46,8 @@ constexpr double kMaxExtrapolationS = 0.5;
 
 // Views cast and ICP runs that refine a relocalisation from a keyframe, at most.
 constexpr int kRefinementPasses = 3;
+// Integrated frames whose model conflict sets the relocalisation gate's relative part.
+constexpr size_t kConflictHistory = 30;
 
 // The colour is registered again when the rotation pre-alignment moved the start more than
 // this, degrees: the registration's motion changes by about as much over the exposures' time
@@ -163,6 +165,9 @@ std::string ReconstructionOptions::Check() const {
   }
   if (!InRange(min_valid_depth_fraction, 0, 1)) {
     return Fail("min_valid_depth_fraction", min_valid_depth_fraction, "in [0, 1]");
+  }
+  if (!(relocalisation_max_conflict >= 0 && relocalisation_max_conflict <= 1)) {
+    return Fail("relocalisation_max_conflict", relocalisation_max_conflict, "in [0, 1]");
   }
   if (!(relocalisation_widening >= 1) || !std::isfinite(relocalisation_widening)) {
     return Fail("relocalisation_widening", relocalisation_widening, ">= 1");
@@ -495,9 +500,31 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
     max_residual_m = options_.max_residual_ratio * median(recent_residuals_m_);
     max_condition = options_.max_condition_ratio * median(recent_conditions_);
   }
+  // Relocalisation: a candidate must also agree with the model's free space
+  // (relocalisation_max_conflict).
+  double max_conflict = std::numeric_limits<double>::infinity();
+  if (lost_ && options_.relocalisation_max_conflict < 1 && options_.dynamic.enabled()) {
+    max_conflict = options_.relocalisation_max_conflict;
+    if (recent_conflicts_.size() >= kMinHistory) max_conflict = std::max(max_conflict, 3 * median(recent_conflicts_));
+  }
+  double rejected_conflict = std::numeric_limits<double>::quiet_NaN();
+  auto check_conflict = [&](IcpResult& result, const ModelPyramid& view, double& conflict) {
+    if (result.status != IcpStatus::kOk || !std::isfinite(max_conflict)) return;
+    const int level = options_.raycast_level;
+    conflict = MeasureModelConflict(pyramid.raw_depth_m, depth_undistorter_.pinhole(), result.world_from_camera,
+                                    view.maps[level], view.cameras[level], view.world_from_camera,
+                                    options_.dynamic, options_.num_threads)
+                   .Fraction();
+    if (conflict > max_conflict) {
+      result.status = IcpStatus::kModelConflict;
+      ++record.conflict_rejections;
+      if (!(rejected_conflict >= conflict)) rejected_conflict = conflict;
+    }
+  };
   // Directions constrained this much worse than usual are held at the prediction (at most
   // icp.max_held_directions of them, else the frame fails as ill-conditioned).
   IcpResult best;
+  double best_conflict = std::numeric_limits<double>::quiet_NaN();
   const Attempt* best_attempt = &attempts.front();
   bool ok = false;
   for (Attempt& attempt : attempts) {
@@ -506,10 +533,13 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
     if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
       result.status = IcpStatus::kLargeResidual;
     }
+    double conflict = std::numeric_limits<double>::quiet_NaN();
+    check_conflict(result, *model_, conflict);
     if (result.status == IcpStatus::kOk) {
       if (!ok || result.inliers > best.inliers) {
         best = result;
         best_attempt = &attempt;
+        best_conflict = conflict;
       }
       ok = true;
       if (!lost_) break;  // tracking: the first success; relocalising: the best of all
@@ -574,10 +604,13 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
       if (result.status == IcpStatus::kOk && result.residual_rms_m > max_residual_m) {
         result.status = IcpStatus::kLargeResidual;
       }
+      double conflict = std::numeric_limits<double>::quiet_NaN();
+      check_conflict(result, *view, conflict);
       attempt.model = view;
       if (result.status == IcpStatus::kOk && (!ok || result.inliers > best.inliers)) {
         best = result;
         best_attempt = &attempt;
+        best_conflict = conflict;
         ok = true;
       }
     }
@@ -593,6 +626,9 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
   record.keyframe = best_attempt->keyframe;
   record.iterations = best.iterations;
   record.photometric_offset = best.photometric_offset;
+  if (lost_) record.model_conflict = ok ? best_conflict : rejected_conflict;
+  // Every candidate that converged contradicted the model: that is why the frame is lost.
+  if (!ok && record.conflict_rejections > 0) record.icp_status = IcpStatus::kModelConflict;
   // From the prediction itself (not the pre-aligned start): how much the motion changed.
   const core::PoseError correction =
       core::ComparePoses(lost_ ? attempts.front().initial : PoseAt(timestamp_s), best.world_from_camera);
@@ -632,6 +668,7 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
   const RotationPrealignResult aligned =
       PrealignRotation(*previous_image_, current, last_from_predicted.rotation, last_from_predicted.translation,
                        options_.prealign);
+  record.prealign_rejected_by_depth = aligned.rejected_by_depth;
   if (!aligned.ok) return prediction;
   record.prealign_deg = aligned.correction_deg;
   core::Rigid3d last_from_current = last_from_predicted;
@@ -690,6 +727,19 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
         ModelSeenThrough(pyramid.raw_depth_m, depth_undistorter_.pinhole(), world_from_depth, model_->maps[level],
                          options_.dynamic, options_.num_threads);
     record.carved_points = static_cast<int>(through.size());
+    // The same measure as a relocalisation's (ModelConflict), from these counts.
+    ModelConflict conflict;
+    conflict.in_front = record.dynamic_pixels;
+    conflict.depth_pixels = cv::countNonZero(pyramid.raw_depth_m > 0);
+    conflict.seen_through = record.carved_points;
+    const PointMap& view = model_->maps[level];
+    conflict.model_points = static_cast<int>(
+        std::count_if(view.points.begin(), view.points.end(), [](const Eigen::Vector3f& p) { return IsValid(p); }));
+    record.model_conflict = conflict.Fraction();
+    if (!frame.world_from_depth && record.status != FrameStatus::kRecovered) {
+      recent_conflicts_.push_back(record.model_conflict);
+      if (recent_conflicts_.size() > kConflictHistory) recent_conflicts_.erase(recent_conflicts_.begin());
+    }
     if (!through.empty()) volume_.CarveFreeSpace(through, world_from_depth.translation.cast<float>());
   }
   volume_.Integrate(depth_m, depth_undistorter_.pinhole(), world_from_depth, colour ? &*colour : nullptr);

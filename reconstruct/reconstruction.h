@@ -121,6 +121,18 @@ struct ReconstructionOptions {
   // icp.max_held_directions of them (a frame without colour facing a flat wall) and the
   // frame counts as failed. > 1.
   double max_condition_ratio = 5.0;
+  // A relocalised pose (a frame recovering from a loss, from the last or extrapolated pose
+  // or a keyframe's) must agree with the model seen from there: the live depth standing in
+  // front of the model's surface or seeing through it (ModelConflict, by dynamic's margins)
+  // may be at most this fraction, or 3× the median of the last integrated frames' when that
+  // is higher (a person who has been in view all along, a mirror). ICP alone accepts a pose
+  // one part over along a row of alike parts, or slid along a wall, when enough points pair
+  // up; the free space around them does not (measured: 0–2 % at tracked poses on the 160×120
+  // test scans, under 0.01 % on a full-size sweep; 5–9 % at the 160×120 jerky scan's
+  // relocalisations 0.25 m off, which were fused and held the frames after them). A rejected
+  // candidate leaves the frame lost, and the next frame tries again: a recovery can come
+  // later, not wrong. Needs dynamic's margins (off: no check). [0, 1]; 1: off.
+  double relocalisation_max_conflict = 0.03;
   // Global relocalisation (keyframes.h): tracked frames at new places are kept as small
   // blurred images; a lost frame that neither the last pose nor the extrapolated one aligns,
   // or one lost (or unobserved) for over 0.5 s, is tried from the poses of the keyframes it
@@ -193,11 +205,21 @@ struct FrameRecord {
   // or the extrapolated pose).
   int keyframe = -1;
   int iterations = 0;
+  // The live depth's disagreement with the model view at the frame's pose (ModelConflict::
+  // Fraction): of integrated frames (against the view they were tracked with) and of
+  // relocalisation candidates (the best one's, for a frame that stayed lost the largest
+  // rejected); NaN when not measured.
+  double model_conflict = std::numeric_limits<double>::quiet_NaN();
+  // Relocalisation candidates that ICP aligned but relocalisation_max_conflict rejected.
+  int conflict_rejections = 0;
   // Brightness offset of ICP's photometric term (IcpResult::photometric_offset), grey levels.
   double photometric_offset = 0;
   // Rotation pre-alignment (ReconstructionOptions::prealign): how far it moved ICP's start
   // from the prediction, degrees; NaN when it did not run or was not accepted.
   double prealign_deg = std::numeric_limits<double>::quiet_NaN();
+  // The pre-alignment found a rotation that the depth contradicted
+  // (RotationPrealignOptions::max_depth_misfit_ratio): ICP started from the prediction.
+  bool prealign_rejected_by_depth = false;
   // Change from the constant-velocity prediction to the estimate.
   double correction_m = 0, correction_deg = 0;
   size_t blocks = 0;  // voxel blocks in the volume after this frame, fused or not (memory
@@ -281,6 +303,7 @@ class Reconstruction {
   bool lost_ = false;
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first
   std::vector<double> recent_conditions_;   // likewise
+  std::vector<double> recent_conflicts_;    // model_conflict of the last integrated frames
   double last_timestamp_s_ = -1e300;
   // The last frame's coarsest level (grey and depth) for the rotation pre-alignment, and its time.
   std::optional<PrealignImage> previous_image_;

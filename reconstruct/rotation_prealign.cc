@@ -100,6 +100,34 @@ bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rot
   return true;
 }
 
+double DepthMisfit(const PrealignImage& previous, const PrealignImage& current, const Eigen::Matrix3d& rotation,
+                   const Eigen::Vector3d& t, int step) {
+  const PinholeCamera& cc = current.camera;
+  const PinholeCamera& pc = previous.camera;
+  const int width = current.depth_m.cols, height = current.depth_m.rows;
+  double sum = 0;
+  int n = 0;
+  for (int y = 1; y + 1 < height; y += step) {
+    const float* depth = current.depth_m.ptr<float>(y);
+    for (int x = 1; x + 1 < width; x += step) {
+      const float d = depth[x];
+      if (!(d > 0) || !std::isfinite(d)) continue;
+      const Eigen::Vector3d point(double{d} * (x - double{cc.cx}) / double{cc.fx},
+                                  double{d} * (y - double{cc.cy}) / double{cc.fy}, double{d});
+      const Eigen::Vector3d p = rotation * point + t;
+      if (!(p.z() > 1e-3)) continue;
+      const double u = double{pc.fx} * p.x() / p.z() + double{pc.cx}, v = double{pc.fy} * p.y() / p.z() + double{pc.cy};
+      if (!(u > -0.5 && v > -0.5 && u < previous.depth_m.cols - 0.5 && v < previous.depth_m.rows - 0.5)) continue;
+      const float z_previous =
+          previous.depth_m.at<float>(static_cast<int>(std::lround(v)), static_cast<int>(std::lround(u)));
+      if (!(z_previous > 0) || !std::isfinite(z_previous)) continue;
+      sum += std::min(std::abs(double{z_previous} - p.z()), kDepthMisfitCapM);
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
 }  // namespace internal
 
 std::string RotationPrealignOptions::Check() const {
@@ -116,6 +144,9 @@ std::string RotationPrealignOptions::Check() const {
   if (!(huber > 0 && huber <= 1)) return OptionFail("huber", huber, "in (0, 1] grey levels");
   if (min_pixels < 10) return OptionFail("min_pixels", min_pixels, ">= 10");
   if (scales < 1 || scales > 4) return OptionFail("scales", scales, "in [1, 4]");
+  if (!(max_depth_misfit_ratio == 0 || (max_depth_misfit_ratio >= 1 && std::isfinite(max_depth_misfit_ratio)))) {
+    return OptionFail("max_depth_misfit_ratio", max_depth_misfit_ratio, "0 (off) or finite and >= 1");
+  }
   return "";
 }
 
@@ -238,6 +269,16 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
   result.correction_deg = estimate.angularDistance(result.previous_from_current) * kRadToDeg;
   result.ok = result.rms_after < result.rms_before && result.correction_deg >= options.min_correction_deg &&
               result.correction_deg <= options.max_rotation_deg;
+  // The depth's say (max_depth_misfit_ratio): the same points, at the guess and at the end.
+  if (result.ok && options.max_depth_misfit_ratio > 0) {
+    result.depth_misfit_before_m =
+        internal::DepthMisfit(previous, current, result.previous_from_current.toRotationMatrix(), t, base_step);
+    result.depth_misfit_after_m = internal::DepthMisfit(previous, current, rotation, t, base_step);
+    if (!(result.depth_misfit_after_m <= options.max_depth_misfit_ratio * result.depth_misfit_before_m)) {
+      result.ok = false;
+      result.rejected_by_depth = true;
+    }
+  }
   if (result.ok) result.previous_from_current = estimate.normalized();
   return result;
 }

@@ -15,8 +15,10 @@
 // alignment's (rendered without the colour camera's rolling shutter) within 26 mm, ATE 56 → 6 mm.
 // Coarse to fine (stop 43): across a dropped frame the swing turned the rig 4° past the
 // prediction, and aligned at the finest blur alone the start moved 7° (the brick courses
-// repeat every 5 px at 160×120); from the coarsest, 4.1°.
+// repeat every 5 px at 160×120); from the coarsest, 4.1°. Checked against the depth (stop
+// 44, max_depth_misfit_ratio): grey levels also follow a person walking across the view.
 
+#include <limits>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -48,6 +50,16 @@ struct RotationPrealignOptions {
   // Blur scales aligned coarse to fine, each twice the blur of the next, the finest
   // blur_sigma_px, in [1, 4]; `iterations` at each.
   int scales = 3;
+  // The depth must agree: the rotation found is accepted only when the current frame's
+  // points, moved by it onto the previous frame, meet the previous frame's depth no worse
+  // than at the guess — the mean |Δz| (each capped at kDepthMisfitCapM) at the end at most
+  // this times the one at the guess. Grey levels alone follow whatever moves in the image: a
+  // person walking across the view pulled the rotation 0.7–3.9° per frame off a smooth
+  // path, ICP started there settled millimetres astray each frame, the person was fused,
+  // and the full-size 4 s passer sweep tracked 593 mm off (16 mm with the pre-alignment
+  // off); the rig's own turn moves every static surface alike, so a right rotation brings
+  // the depth closer. Ratio, >= 1; 0: off.
+  double max_depth_misfit_ratio = 1.0;
 
   bool enabled() const { return iterations > 0; }
   // "" when valid, else a message naming the field, value and constraint.
@@ -71,9 +83,19 @@ struct RotationPrealignResult {
   Eigen::Quaterniond previous_from_current = Eigen::Quaterniond::Identity();
   double correction_deg = 0;  // from the guess
   double rms_before = 0, rms_after = 0;  // grey levels, robust-weighted, at the guess and at the end
+  // Mean |Δz| of the current points against the previous depth at the guess and at the end
+  // (m, each capped at kDepthMisfitCapM; NaN when not measured: check off, or no rotation
+  // within the accepted range); rejected_by_depth: the only test that failed was that one.
+  double depth_misfit_before_m = std::numeric_limits<double>::quiet_NaN();
+  double depth_misfit_after_m = std::numeric_limits<double>::quiet_NaN();
+  bool rejected_by_depth = false;
   int pixels = 0;          // pairs used in the last iteration
   int iterations = 0;
 };
+
+// A point's depth misfit counts at most this (m): an occluding edge or a moving object then
+// weighs like any point 10 cm off, not by how far behind it the background lies.
+inline constexpr double kDepthMisfitCapM = 0.1;
 
 // Aligns `current` to `previous` by rotation: minimises over R the robust sum over current
 // pixels p with depth d of (I_prev(π(R·d·K⁻¹p + t)) − I_cur(p) − b)², b a brightness offset
@@ -83,7 +105,8 @@ struct RotationPrealignResult {
 // level), each starting from the last one's rotation and offset (a coarser scale with too
 // few samples, or whose iteration fails, is skipped); the residual test compares the finest
 // scale's residual at the guess with its residual at the end. `guess` is the prediction of
-// previous_from_current (its rotation the start, its translation t kept fixed). Both images
+// previous_from_current (its rotation the start, its translation t kept fixed). The result is
+// then checked against the depth (max_depth_misfit_ratio). Both images
 // must have one size and camera (asserted). Never throws; ok = false when the images hold too
 // few usable pixels, the iteration diverges or leaves the allowed range.
 RotationPrealignResult PrealignRotation(const PrealignImage& previous, const PrealignImage& current,
@@ -110,6 +133,14 @@ PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_
 bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t,
                       const Eigen::Vector3d& point, float grey, double offset, double& residual,
                       Eigen::Vector4d& jacobian);
+
+// Mean over the current frame's pixels with depth (every `step`-th of each row and column,
+// inner pixels) of min(|z_prev − z|, kDepthMisfitCapM): z the depth of the point moved by
+// (rotation, t) into the previous camera, z_prev the previous depth at the nearest pixel it
+// lands on. Points landing outside the image or on a pixel without depth are skipped; 0 when
+// none is left (m).
+double DepthMisfit(const PrealignImage& previous, const PrealignImage& current, const Eigen::Matrix3d& rotation,
+                   const Eigen::Vector3d& t, int step);
 
 }  // namespace internal
 

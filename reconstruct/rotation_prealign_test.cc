@@ -196,6 +196,76 @@ TEST(PrealignRotation, KeepsTheGuessWhenNothingConstrainsOrTheCorrectionIsTooLar
   EXPECT_EQ(r.iterations, 0);
 }
 
+// A person walking by: a slab 0.7 m wide and 0.9 m tall, 1 m from the camera (half the view),
+// striped every 30 cm, in front of the textured wall 2 m away, steps 5 cm to the side
+// between the frames (6.6 px) while the rig turns exactly as predicted. The grey images follow the person — the alignment moves the
+// rotation off the prediction — while the depth says the wall has not moved.
+PrealignImage RenderWithPerson(double person_x_m) {
+  PrealignImage image = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const PinholeCamera cam = Camera();
+  for (int y = 0; y < cam.height; ++y) {
+    for (int x = 0; x < cam.width; ++x) {
+      const double px = (x - double{cam.cx}) / double{cam.fx}, py = (y - double{cam.cy}) / double{cam.fy};  // at z = 1 m
+      if (px < person_x_m || px > person_x_m + 0.7 || std::abs(py) > 0.45) continue;
+      image.grey.at<float>(y, x) = static_cast<float>(0.5 + 0.3 * std::sin(2 * std::numbers::pi * (px - person_x_m) / 0.3));
+      image.depth_m.at<float>(y, x) = 1.0f;
+    }
+  }
+  return image;
+}
+
+TEST(PrealignRotation, RefusesARotationTheDepthContradictsAPersonWalkingBy) {
+  const PrealignImage previous = RenderWithPerson(-0.3), current = RenderWithPerson(-0.25);
+  const Eigen::Quaterniond guess = Eigen::Quaterniond::Identity();  // the rig's true turn
+  RotationPrealignOptions unchecked;
+  unchecked.max_depth_misfit_ratio = 0;
+  const RotationPrealignResult followed = PrealignRotation(previous, current, guess, Eigen::Vector3d::Zero(), unchecked);
+  // Without the check the person wins: the rotation follows their 2.9° step (2.65° found),
+  // accepted — the grey residual fell.
+  ASSERT_TRUE(followed.ok);
+  EXPECT_GT(followed.correction_deg, 2.0);
+  EXPECT_TRUE(std::isnan(followed.depth_misfit_before_m));
+  const RotationPrealignResult checked =
+      PrealignRotation(previous, current, guess, Eigen::Vector3d::Zero(), RotationPrealignOptions{});
+  EXPECT_FALSE(checked.ok);
+  EXPECT_TRUE(checked.rejected_by_depth);
+  EXPECT_NEAR(checked.correction_deg, followed.correction_deg, 1e-9);  // the same alignment, refused
+  EXPECT_GT(checked.depth_misfit_after_m, checked.depth_misfit_before_m);
+  EXPECT_LT(AngleDeg(checked.previous_from_current, guess), 1e-9);  // ICP starts from the prediction
+
+  // A real turn is not refused: the jerk of the first test, the depth check on by default.
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(1.5 * kDeg, Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(0.6 * kDeg, Eigen::Vector3d::UnitX()));
+  const Eigen::Vector3d t(0.03, -0.01, 0.005);
+  const RotationPrealignResult turn =
+      PrealignRotation(Render(guess, Eigen::Vector3d::Zero()), Render(truth, t), guess, t, RotationPrealignOptions{});
+  ASSERT_TRUE(turn.ok);
+  EXPECT_FALSE(turn.rejected_by_depth);
+  EXPECT_LT(turn.depth_misfit_after_m, 0.2 * turn.depth_misfit_before_m);
+}
+
+// The misfit on the plain wall: 0 at the true rotation (every point lands on its own depth,
+// to the nearest pixel's slope), and at a wrong one the distance of the rotated plane from
+// the true one along the rays, averaged: for a 1° turn about y of a wall 2 m away, |Δz| at
+// lateral offset x is about x·tan 1° ≈ 0.0175 x, x up to ±1.2 m: a mean of ~1 cm.
+TEST(PrealignRotation, DepthMisfitIsZeroAtTheTruthAndGrowsWithTheError) {
+  const Eigen::Quaterniond truth(Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d::UnitY()));
+  const PrealignImage previous = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const PrealignImage current = Render(truth, Eigen::Vector3d::Zero());
+  const double at_truth = internal::DepthMisfit(previous, current, truth.toRotationMatrix(), Eigen::Vector3d::Zero(), 1);
+  const double at_identity =
+      internal::DepthMisfit(previous, current, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1);
+  // Nearest-pixel lookup on a plane tilted 1°: a half pixel's depth slope, 2 m · tan 1° / 131 px.
+  EXPECT_LT(at_truth, 0.5 * 2.0 * std::tan(1.0 * kDeg) / 131.25 + 1e-6);
+  EXPECT_GT(at_identity, 0.005);
+  EXPECT_LT(at_identity, 0.02);
+  // Capped: a point 0.5 m off counts 0.1 m.
+  PrealignImage far = current;
+  far.depth_m.setTo(cv::Scalar(1.5f));
+  EXPECT_NEAR(internal::DepthMisfit(previous, far, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1),
+              kDepthMisfitCapM, 1e-6);
+}
+
 // The residual's derivative by the left rotation increment and the offset against central
 // differences of the residual itself. The gradient images are central differences of the
 // blurred image, interpolated; the residual is its bilinear interpolant, whose slope within a
@@ -272,6 +342,14 @@ TEST(RotationPrealignOptions, CheckNamesTheFieldValueAndConstraint) {
   o = {};
   o.scales = 0;
   EXPECT_THAT(o.Check(), HasSubstr("scales: must be in [1, 4], got 0"));
+  for (double ratio : {0.5, -1.0, std::nan("")}) {
+    o = {};
+    o.max_depth_misfit_ratio = ratio;
+    EXPECT_THAT(o.Check(), HasSubstr("max_depth_misfit_ratio")) << ratio;
+  }
+  o = {};
+  o.max_depth_misfit_ratio = 0;  // off
+  EXPECT_EQ(o.Check(), "");
 }
 
 }  // namespace

@@ -78,7 +78,11 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
                           "\"integrated\": false", "\"dynamic\": {\"margin_m\": 0.1", "\"dynamic_pixels\"",
                           "\"carved_points\"", "\"dynamic_frames\"", "\"carved_frames\"",
                           "\"keyframes\": {\"candidates\": 3", "\"prealign\": {\"iterations\": 10", "\"prealign_deg\": ", "\"recovered_from_keyframe\": 0", "\"keyframe\": -1",
-                          "\"scales\": 3", "\"photometric_offset\": true", "\"photometric_offset\": "}) {
+                          "\"scales\": 3", "\"photometric_offset\": true", "\"photometric_offset\": ",
+                          "\"relocalisation_max_conflict\": 0.03", "\"relocalisations_rejected\": 0",
+                          "\"conflict_rejections\": 0", "\"model_conflict\": 0", "\"model_conflict\": null",
+                          "\"max_depth_misfit_ratio\": 1", "\"prealign_rejected_by_depth\": false",
+                          "\"relocalisations_rejected\": 0, \"prealign_rejected_by_depth\": "}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // Frames tracked between raycasts keep their pose (above) but are not integrated: said.
@@ -306,6 +310,14 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                      " --relocalisation-candidates 11");
   EXPECT_EQ(candidates.exit_code, 2) << candidates.output;
   EXPECT_NE(candidates.output.find("keyframes.candidates"), std::string::npos) << candidates.output;
+  const Result conflict = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                   " --relocalisation-max-conflict 1.5");
+  EXPECT_EQ(conflict.exit_code, 2) << conflict.output;
+  EXPECT_NE(conflict.output.find("relocalisation_max_conflict"), std::string::npos) << conflict.output;
+  const Result misfit = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                 " --prealign-max-depth-misfit-ratio 0.5");
+  EXPECT_EQ(misfit.exit_code, 2) << misfit.output;
+  EXPECT_NE(misfit.output.find("prealign.max_depth_misfit_ratio"), std::string::npos) << misfit.output;
   const Result prealign = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                    " --prealign-iterations 51");
   EXPECT_EQ(prealign.exit_code, 2) << prealign.output;
