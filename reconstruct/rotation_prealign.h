@@ -77,7 +77,7 @@ struct PrealignImage {
 
 struct RotationPrealignResult {
   // At least min_pixels, the residual lowered, the correction in [min_correction_deg,
-  // max_rotation_deg].
+  // max_rotation_deg], and the depth no worse (max_depth_misfit_ratio).
   bool ok = false;
   // The estimate of previous_from_current's rotation (the input guess when !ok).
   Eigen::Quaterniond previous_from_current = Eigen::Quaterniond::Identity();
