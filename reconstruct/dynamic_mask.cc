@@ -147,8 +147,7 @@ ModelConflict MeasureModelConflict(const cv::Mat& depth_m, const PinholeCamera& 
                                    const DynamicMaskOptions& options, int num_threads) {
   ModelConflict c;
   c.depth_pixels = cv::countNonZero(depth_m > 0);
-  c.model_points = static_cast<int>(std::count_if(model.points.begin(), model.points.end(),
-                                                   [](const Eigen::Vector3f& p) { return IsValid(p); }));
+  c.model_points = model.NumValid();
   if (!options.enabled()) return c;
   cv::Mat masked = depth_m.clone();
   c.in_front = MaskInFrontOfModel(masked, camera, world_from_depth, model, model_camera, world_from_model, options,

@@ -730,11 +730,10 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
     // The same measure as a relocalisation's (ModelConflict), from these counts.
     ModelConflict conflict;
     conflict.in_front = record.dynamic_pixels;
-    conflict.depth_pixels = cv::countNonZero(pyramid.raw_depth_m > 0);
+    // raw_depth_m holds 0 or in-range depth: AddFrame's count of its valid pixels, not again.
+    conflict.depth_pixels = static_cast<int>(std::lround(record.valid_depth_fraction * pyramid.raw_depth_m.total()));
     conflict.seen_through = record.carved_points;
-    const PointMap& view = model_->maps[level];
-    conflict.model_points = static_cast<int>(
-        std::count_if(view.points.begin(), view.points.end(), [](const Eigen::Vector3f& p) { return IsValid(p); }));
+    conflict.model_points = model_->maps[level].NumValid();
     record.model_conflict = conflict.Fraction();
     if (!frame.world_from_depth && record.status != FrameStatus::kRecovered) {
       recent_conflicts_.push_back(record.model_conflict);
