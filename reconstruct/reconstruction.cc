@@ -28,7 +28,7 @@ ReconstructionOptions Effective(ReconstructionOptions o) {
   o.tsdf.min_depth_m = o.depth.min_depth_m = o.raycast.min_depth_m = o.min_depth_m;
   o.tsdf.max_depth_m = o.depth.max_depth_m = o.raycast.max_depth_m = o.max_depth_m;
   o.tsdf.num_threads = o.depth.num_threads = o.icp.num_threads = o.raycast.num_threads =
-      o.mesh.num_threads = o.num_threads;
+      o.mesh.num_threads = o.prealign.num_threads = o.num_threads;
   if (o.raycast_level >= 0 && o.raycast_level < static_cast<int>(o.icp.iterations.size())) {
     for (int l = 0; l < o.raycast_level; ++l) o.icp.iterations[l] = 0;
     if (o.raycast_level < o.depth.num_levels) o.depth.first_map_level = o.raycast_level;
