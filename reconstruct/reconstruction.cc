@@ -248,20 +248,24 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   }
   // Whatever becomes of this frame, the next one pre-aligns against it (only when it is
   // the last fused frame: PrealignedPrediction checks the time).
+  // With its blurs when the pre-alignment made them (cleared when the colour is registered
+  // again: they are of the grey levels before).
+  std::vector<PrealignBlur> prealign_blurs;
   struct KeepImage {
     Reconstruction& self;
     const DepthPyramid& pyramid;
     double timestamp_s;
+    std::vector<PrealignBlur>& blurs;
     ~KeepImage() {
       const DepthLevel& level = PrealignLevel(pyramid);
       if (level.intensity.empty()) {
         self.previous_image_.reset();
       } else {
-        self.previous_image_ = PrealignImage{level.intensity, level.depth_m, level.camera};
+        self.previous_image_ = PrealignImage{level.intensity, level.depth_m, level.camera, std::move(blurs)};
         self.previous_image_timestamp_s_ = timestamp_s;
       }
     }
-  } keep_image{*this, pyramid, frame.timestamp_s};
+  } keep_image{*this, pyramid, frame.timestamp_s, prealign_blurs};
   record.valid_depth_fraction =
       static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
   record.prepare_ms = internal::MsSince(start);
@@ -296,8 +300,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     // exposures' time difference and the readout sweep turn with it).
     core::Rigid3d prediction = PoseAt(frame.timestamp_s);
     if (!lost_) {
-      prediction = PrealignedPrediction(pyramid, frame.timestamp_s, record);
+      prediction = PrealignedPrediction(pyramid, frame.timestamp_s, record, &prealign_blurs);
       if (photometric && record.prealign_deg > kReregisterDeg) {
+        prealign_blurs.clear();
         const core::TimedPose last = trajectory_.poses().back();
         const core::Rigid3d start_pose = prediction;
         register_colour([&](double t) {
@@ -579,7 +584,8 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
 }
 
 core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, double timestamp_s,
-                                                   FrameRecord& record) const {
+                                                   FrameRecord& record,
+                                                   std::vector<PrealignBlur>* current_blurs) const {
   const core::Rigid3d prediction = PoseAt(timestamp_s);
   const auto& poses = trajectory_.poses();
   const DepthLevel& level = PrealignLevel(pyramid);
@@ -590,10 +596,10 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
   }
   const core::Rigid3d& last = poses.back().world_from_sensor;
   const core::Rigid3d last_from_predicted = last.Inverse() * prediction;
-  const PrealignImage current{level.intensity, level.depth_m, level.camera};
+  const PrealignImage current{level.intensity, level.depth_m, level.camera, {}};
   const RotationPrealignResult aligned =
       PrealignRotation(*previous_image_, current, last_from_predicted.rotation, last_from_predicted.translation,
-                       options_.prealign);
+                       options_.prealign, current_blurs);
   record.prealign_rejected_by_depth = aligned.rejected_by_depth;
   if (!aligned.ok) return prediction;
   record.prealign_deg = aligned.correction_deg;

@@ -266,7 +266,9 @@ class Reconstruction {
   // The constant-velocity prediction at timestamp_s with its rotation replaced by the
   // pre-alignment of `pyramid`'s coarsest level against the previous frame's (when that
   // frame is the last fused one and the alignment is accepted; else the prediction).
-  core::Rigid3d PrealignedPrediction(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record) const;
+  // current_blurs receives the level's blurs the alignment made (PrealignRotation).
+  core::Rigid3d PrealignedPrediction(const DepthPyramid& pyramid, double timestamp_s, FrameRecord& record,
+                                     std::vector<PrealignBlur>* current_blurs) const;
   void Integrate(const DepthPyramid& pyramid, const FrameInput& frame, const cv::Mat& rgb_pinhole,
                  const core::Rigid3d& world_from_depth, FrameRecord& record);
   // Whether the next frame, predicted at constant velocity from this pose, would be beyond

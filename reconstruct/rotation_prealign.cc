@@ -61,7 +61,15 @@ namespace internal {
 PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_px) {
   PrealignImages out;
   out.camera = previous.camera;
-  BlurValid(previous, blur_sigma_px, out.grey, out.coverage);
+  const auto cached = std::find_if(previous.blurs.begin(), previous.blurs.end(),
+                                   [&](const PrealignBlur& b) { return b.sigma_px == blur_sigma_px; });
+  if (cached != previous.blurs.end()) {
+    assert(cached->grey.size() == previous.grey.size() && cached->coverage.size() == previous.grey.size());
+    out.grey = cached->grey;
+    out.coverage = cached->coverage;
+  } else {
+    BlurValid(previous, blur_sigma_px, out.grey, out.coverage);
+  }
   const int width = out.grey.cols, height = out.grey.rows;
   out.grad_x = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
   out.grad_y = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
@@ -246,12 +254,14 @@ std::string RotationPrealignOptions::Check() const {
 RotationPrealignResult PrealignRotation(const PrealignImage& previous, const PrealignImage& current,
                                         const Eigen::Quaterniond& guess_rotation,
                                         const Eigen::Vector3d& guess_translation_m,
-                                        const RotationPrealignOptions& options) {
+                                        const RotationPrealignOptions& options,
+                                        std::vector<PrealignBlur>* current_blurs) {
   assert(previous.grey.type() == CV_32FC1 && current.grey.type() == CV_32FC1);
   assert(previous.grey.size() == current.grey.size() && previous.depth_m.size() == previous.grey.size() &&
          current.depth_m.size() == current.grey.size());
   RotationPrealignResult result;
   result.previous_from_current = guess_rotation.normalized();
+  if (current_blurs != nullptr) current_blurs->clear();
   if (!options.enabled()) return result;
   const int width = previous.grey.cols, height = previous.grey.rows;
   if (width < 4 || height < 4) return result;
@@ -275,6 +285,7 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
     const internal::PrealignImages images = internal::PreparePrevious(previous, sigma_px);
     cv::Mat cur_grey, cur_coverage;
     BlurValid(current, sigma_px, cur_grey, cur_coverage);
+    if (current_blurs != nullptr) current_blurs->push_back({sigma_px, cur_grey, cur_coverage});
 
     // The current frame's samples: camera-frame points and their grey levels. Every second
     // pixel (the blur has removed what lies between) where the image is large enough, every

@@ -71,6 +71,13 @@ struct RotationPrealignOptions {
   std::string Check() const;
 };
 
+// A grey image blurred over its pixels with depth at one scale (σ sigma_px), and the blurred
+// coverage of those pixels (1 inside, falling to 0 outside).
+struct PrealignBlur {
+  double sigma_px = 0;
+  cv::Mat grey, coverage;
+};
+
 // One frame as the pre-alignment reads it: the grey image (CV_32FC1 in [0, 1]) and depth
 // (CV_32FC1, m, 0 = none) of one pyramid level, with that level's camera. Pixels without
 // depth carry no colour (the registration gives none there).
@@ -78,6 +85,10 @@ struct PrealignImage {
   cv::Mat grey;
   cv::Mat depth_m;
   PinholeCamera camera;
+  // Its blurs at the alignment's scales when already made (PrealignRotation's
+  // `current_blurs` when this frame was the current one): as the previous frame it is then
+  // not blurred again (1.6 of the alignment's 2.9 ms per 640×480 frame were blurs).
+  std::vector<PrealignBlur> blurs;
 };
 
 struct RotationPrealignResult {
@@ -111,13 +122,16 @@ inline constexpr double kDepthMisfitCapM = 0.1;
 // few samples, or whose iteration fails, is skipped); the residual test compares the finest
 // scale's residual at the guess with its residual at the end. `guess` is the prediction of
 // previous_from_current (its rotation the start, its translation t kept fixed). The result is
-// then checked against the depth (max_depth_misfit_ratio). Both images
+// then checked against the depth (max_depth_misfit_ratio). previous.blurs are used where
+// their σ matches a scale's; `current_blurs` (optional) receives the current image's blurs,
+// for when it is the previous one. Both images
 // must have one size and camera (asserted). Never throws; ok = false when the images hold too
 // few usable pixels, the iteration diverges or leaves the allowed range.
 RotationPrealignResult PrealignRotation(const PrealignImage& previous, const PrealignImage& current,
                                         const Eigen::Quaterniond& guess_rotation,
                                         const Eigen::Vector3d& guess_translation_m,
-                                        const RotationPrealignOptions& options);
+                                        const RotationPrealignOptions& options,
+                                        std::vector<PrealignBlur>* current_blurs = nullptr);
 
 namespace internal {
 
@@ -129,7 +143,8 @@ struct PrealignImages {
   PinholeCamera camera;
 };
 
-// The previous frame's images as PrealignRotation aligns against them.
+// The previous frame's images as PrealignRotation aligns against them: from its blur at
+// blur_sigma_px (made here unless previous.blurs holds it).
 PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_px);
 
 // One current point's residual I_prev(π(R·X + t)) − grey − offset (X: the point in the

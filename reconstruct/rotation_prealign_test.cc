@@ -59,7 +59,7 @@ float Bricks(double x, double y) {
 PrealignImage Render(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& t, float offset = 0,
                      float (*texture)(double, double) = Texture) {
   const PinholeCamera cam = Camera();
-  PrealignImage image{cv::Mat(cam.height, cam.width, CV_32FC1), cv::Mat(cam.height, cam.width, CV_32FC1), cam};
+  PrealignImage image{cv::Mat(cam.height, cam.width, CV_32FC1), cv::Mat(cam.height, cam.width, CV_32FC1), cam, {}};
   const Eigen::Matrix3d r = rotation.toRotationMatrix();
   for (int y = 0; y < cam.height; ++y) {
     for (int x = 0; x < cam.width; ++x) {
@@ -274,7 +274,7 @@ TEST(PrealignRotation, DepthMisfitIsZeroAtTheTruthAndGrowsWithTheError) {
 // period P px, 2π/P of its largest slope — 3.1 % at P = 200 (the x pattern; 150 along y:
 // 4.2 %). 5 % of the largest derivative allowed (a wrong sign or axis is off by 100 %).
 TEST(PrealignRotation, ResidualDerivativesMatchFiniteDifferences) {
-  PrealignImage previous{cv::Mat(120, 160, CV_32FC1), cv::Mat(120, 160, CV_32FC1, cv::Scalar(2.0f)), Camera()};
+  PrealignImage previous{cv::Mat(120, 160, CV_32FC1), cv::Mat(120, 160, CV_32FC1, cv::Scalar(2.0f)), Camera(), {}};
   for (int y = 0; y < 120; ++y) {
     for (int x = 0; x < 160; ++x) {
       previous.grey.at<float>(y, x) = static_cast<float>(0.5 + 0.2 * std::sin(2 * std::numbers::pi * x / 200) *
@@ -384,6 +384,30 @@ TEST(PrealignRotation, FloatAccumulationMatchesTheReferenceForAnyThreadCount) {
     EXPECT_EQ(many.sum_wr2, one.sum_wr2) << threads;
     EXPECT_EQ(many.used, one.used) << threads;
   }
+}
+
+// A frame aligned as the current one hands out its blurs (one per scale, σ 1.5, 3 and 6 px);
+// aligning the next frame against it with them gives the bits it gives without them.
+TEST(PrealignRotation, TheCurrentFramesBlursServeAsThePreviousFramesNextTime) {
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(1.2 * kDeg, Eigen::Vector3d(0.2, 1, 0).normalized()));
+  const PrealignImage first = Render(Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  PrealignImage second = Render(turn, Eigen::Vector3d(0.01, 0, 0));
+  const PrealignImage third = Render(turn * turn, Eigen::Vector3d(0.02, 0, 0));
+  std::vector<PrealignBlur> blurs;
+  const RotationPrealignOptions options;
+  PrealignRotation(first, second, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.01, 0, 0), options, &blurs);
+  ASSERT_EQ(blurs.size(), 3u);
+  EXPECT_EQ(blurs[0].sigma_px, 6.0);  // coarse to fine
+  EXPECT_EQ(blurs[2].sigma_px, 1.5);
+  const RotationPrealignResult fresh =
+      PrealignRotation(second, third, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.01, 0, 0), options);
+  second.blurs = blurs;
+  const RotationPrealignResult cached =
+      PrealignRotation(second, third, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.01, 0, 0), options);
+  ASSERT_TRUE(fresh.ok);
+  EXPECT_EQ(cached.previous_from_current.coeffs(), fresh.previous_from_current.coeffs());
+  EXPECT_EQ(cached.rms_after, fresh.rms_after);
+  EXPECT_EQ(cached.iterations, fresh.iterations);
 }
 
 TEST(RotationPrealignOptions, CheckNamesTheFieldValueAndConstraint) {
