@@ -21,14 +21,29 @@ struct BandPose {
   Eigen::Vector3f t;
 };
 
-// Calls store(y, x, u, v, out_row) for every depth pixel (x, y) with a finite depth whose
-// point lands in front of the colour camera, (u, v) its pixel in the colour image (not
-// bounds-checked; may be NaN), with the rolling shutter's band poses as RegisterColour says.
-// Row bands run on num_threads.
-template <typename Store>
-void ForEachProjection(const cv::Mat& depth_m, const PinholeCamera& depth_camera, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads, double readout_s,
-                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at, const Store& store) {
+}  // namespace
+
+double BandOffsetS(int k, int bands, int height, double readout_s) {
+  const double row = (k + 0.5) * height / bands - 0.5;
+  return readout_s * (row - 0.5 * (height - 1)) / height;
+}
+
+cv::Mat RegisterGrey(const cv::Mat& depth_m, const PinholeCamera& depth_camera, const cv::Mat& rgb,
+                     const PinholeCamera& rgb_camera, int samples_per_side, const core::Rigid3d& rgb_from_depth,
+                     int num_threads, double readout_s,
+                     const std::function<core::Rigid3d(double)>& rgb_from_depth_at) {
+  assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3 && samples_per_side >= 1);
+  cv::Mat grey(depth_m.size(), CV_32FC1, cv::Scalar(0));
+  const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
+  // A fine pixel's footprint in the colour image, px (both cameras pinhole: the ratio of
+  // focal lengths, over the fine pixels per coarse one), and the samples' offsets from the
+  // coarse pixel's centre: fine pixel i's centre lies (i + 0.5 − n/2) fine pixels from it.
+  const int n = samples_per_side;
+  const float step_u = rgb_camera.fx / (depth_camera.fx * static_cast<float>(n));
+  const float step_v = rgb_camera.fy / (depth_camera.fy * static_cast<float>(n));
+  std::vector<float> offset(n);
+  for (int i = 0; i < n; ++i) offset[i] = static_cast<float>(i) + 0.5f - 0.5f * static_cast<float>(n);
+  const float scale = 1.0f / (255.0f * static_cast<float>(n * n));
   // The colour camera per band of rows (one pose when it has a global shutter): row v was
   // exposed readout_s·(v − (H − 1)/2)/H after the frame's time.
   const bool rolling = readout_s > 0 && rgb_from_depth_at != nullptr;
@@ -47,6 +62,7 @@ void ForEachProjection(const cv::Mat& depth_m, const PinholeCamera& depth_camera
   ForEachBand(depth_m.rows, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const float* depth_row = depth_m.ptr<float>(y);
+      float* grey_row = grey.ptr<float>(y);
       const float ray_y = (static_cast<float>(y) - depth_camera.cy) * inv_fy;
       for (int x = 0; x < depth_m.cols; ++x) {
         const float z = depth_row[x];
@@ -76,69 +92,23 @@ void ForEachProjection(const cv::Mat& depth_m, const PinholeCamera& depth_camera
           if (!project(band_pose[k])) continue;
           if (const int k2 = band(v); k2 != k && !project(band_pose[k = k2])) continue;
         }
-        store(y, x, u, v);
+        // The mean of the samples' nearest pixels (u, v may be NaN: the tests reject it).
+        float sum = 0;
+        for (int j = 0; j < n; ++j) {
+          const float sv = v + offset[j] * step_v;
+          if (!(sv > -0.5f && sv < v_max)) continue;
+          const std::uint8_t* row = rgb.ptr<std::uint8_t>(static_cast<int>(sv + 0.5f));
+          for (int i = 0; i < n; ++i) {
+            const float su = u + offset[i] * step_u;
+            if (!(su > -0.5f && su < u_max)) continue;
+            const std::uint8_t* p = row + 3 * static_cast<int>(su + 0.5f);
+            sum += 0.299f * p[0] + 0.587f * p[1] + 0.114f * p[2];
+          }
+        }
+        grey_row[x] = sum * scale;
       }
     }
   });
-}
-
-}  // namespace
-
-double BandOffsetS(int k, int bands, int height, double readout_s) {
-  const double row = (k + 0.5) * height / bands - 0.5;
-  return readout_s * (row - 0.5 * (height - 1)) / height;
-}
-
-cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
-                       const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads, double readout_s,
-                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at) {
-  assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3);
-  cv::Mat registered(depth_m.size(), CV_8UC3, cv::Scalar(0, 0, 0));
-  const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
-  ForEachProjection(depth_m, depth_camera, rgb_camera, rgb_from_depth, num_threads, readout_s, rgb_from_depth_at,
-                    [&](int y, int x, float u, float v) {
-                      // The nearest pixel, when inside the image (the test also rejects NaN).
-                      if (!(u > -0.5f && v > -0.5f && u < u_max && v < v_max)) return;
-                      registered.at<cv::Vec3b>(y, x) =
-                          rgb.at<cv::Vec3b>(static_cast<int>(v + 0.5f), static_cast<int>(u + 0.5f));
-                    });
-  return registered;
-}
-
-cv::Mat RegisterGrey(const cv::Mat& depth_m, const PinholeCamera& depth_camera, const cv::Mat& rgb,
-                     const PinholeCamera& rgb_camera, int samples_per_side, const core::Rigid3d& rgb_from_depth,
-                     int num_threads, double readout_s,
-                     const std::function<core::Rigid3d(double)>& rgb_from_depth_at) {
-  assert(depth_m.type() == CV_32FC1 && rgb.type() == CV_8UC3 && samples_per_side >= 1);
-  cv::Mat grey(depth_m.size(), CV_32FC1, cv::Scalar(0));
-  const float u_max = rgb_camera.width - 0.5f, v_max = rgb_camera.height - 0.5f;
-  // A fine pixel's footprint in the colour image, px (both cameras pinhole: the ratio of
-  // focal lengths, over the fine pixels per coarse one), and the samples' offsets from the
-  // coarse pixel's centre: fine pixel i's centre lies (i + 0.5 − n/2) fine pixels from it.
-  const int n = samples_per_side;
-  const float step_u = rgb_camera.fx / (depth_camera.fx * static_cast<float>(n));
-  const float step_v = rgb_camera.fy / (depth_camera.fy * static_cast<float>(n));
-  std::vector<float> offset(n);
-  for (int i = 0; i < n; ++i) offset[i] = static_cast<float>(i) + 0.5f - 0.5f * static_cast<float>(n);
-  const float scale = 1.0f / (255.0f * static_cast<float>(n * n));
-  ForEachProjection(depth_m, depth_camera, rgb_camera, rgb_from_depth, num_threads, readout_s, rgb_from_depth_at,
-                    [&](int y, int x, float u, float v) {
-                      if (!(std::isfinite(u) && std::isfinite(v))) return;
-                      float sum = 0;
-                      for (int j = 0; j < n; ++j) {
-                        const float sv = v + offset[j] * step_v;
-                        if (!(sv > -0.5f && sv < v_max)) continue;
-                        const std::uint8_t* row = rgb.ptr<std::uint8_t>(static_cast<int>(sv + 0.5f));
-                        for (int i = 0; i < n; ++i) {
-                          const float su = u + offset[i] * step_u;
-                          if (!(su > -0.5f && su < u_max)) continue;
-                          const std::uint8_t* p = row + 3 * static_cast<int>(su + 0.5f);
-                          sum += 0.299f * p[0] + 0.587f * p[1] + 0.114f * p[2];
-                        }
-                      }
-                      grey.at<float>(y, x) = sum * scale;
-                    });
   return grey;
 }
 

@@ -1,8 +1,8 @@
 #pragma once
 
-// The colour stream registered to the depth pixels: for ICP's photometric term (the colour
-// of each depth pixel, or the grey level of each pixel of a coarser pyramid level) and the
-// rolling-shutter bands that integration projects the colour with.
+// The colour stream registered to the depth pixels for ICP's photometric term (the grey level
+// of each pixel of a pyramid level), and the rolling-shutter bands that integration also
+// projects the colour with.
 
 #include <functional>
 
@@ -23,32 +23,24 @@ inline constexpr int kColourBands = 32;
 // read readout_s · (row − (height − 1)/2) / height from it.
 double BandOffsetS(int k, int bands, int height, double readout_s);
 
-// The colour of each depth pixel: its point (depth_m, CV_32FC1 metres, of the pinhole
-// depth_camera) moved by rgb_from_depth and projected into `rgb` (CV_8UC3, pinhole
-// rgb_camera), nearest pixel. Black where there is no depth or the point falls outside the
-// colour image. Surfaces hidden from the colour camera by a nearer one take that one's
-// colour (a few pixels at depth edges with a 2–5 cm baseline). Non-finite depth counts as
-// none. num_threads: row bands run at once (0: hardware concurrency).
+// The grey level (Rec. 601 luma in [0, 1], CV_32FC1, as DepthLevel::intensity) of each depth
+// pixel from the colour frame: its point (depth_m, CV_32FC1 metres, of the pinhole
+// depth_camera) moved by rgb_from_depth and projected into `rgb` (CV_8UC3 in R G B order,
+// pinhole rgb_camera), nearest pixel. At a coarse pyramid level, whose pixels each cover
+// samples_per_side × samples_per_side pixels of the full-resolution frame (2^level), it gives
+// what registering the full frame and averaging down the pyramid gives, for a quarter of the
+// projections per level: each coarse pixel's point is projected once and the colour image
+// read at the samples_per_side² positions its finer pixels would have landed on (offsets of
+// a fine pixel's footprint in the colour image, nearest pixel each; one outside the image
+// counts black). 0 where there is no depth (non-finite counts as none) or every sample falls
+// outside the colour image. Surfaces hidden from the colour camera by a nearer one take that
+// one's colour (a few pixels at depth edges with a 2–5 cm baseline). num_threads: row bands
+// run at once (0: hardware concurrency).
 // A rolling-shutter colour camera (readout_s > 0, rig.yaml rolling_shutter_s.rgb): row v was
 // exposed readout_s·(v − (H − 1)/2)/H after the frame's time, and rgb_from_depth_at(δ) gives
 // the colour camera then (δ in s; rgb_from_depth is δ = 0): each point is projected with the
 // pose of the rows it lands on (32 bands of rows), so that a rig turning during the readout
-// does not shear the registered colour.
-cv::Mat RegisterColour(const cv::Mat& depth_m, const PinholeCamera& depth_camera,
-                       const cv::Mat& rgb, const PinholeCamera& rgb_camera,
-                       const core::Rigid3d& rgb_from_depth, int num_threads = 0, double readout_s = 0,
-                       const std::function<core::Rigid3d(double)>& rgb_from_depth_at = nullptr);
-
-// The grey level (Rec. 601 luma in [0, 1], CV_32FC1, as DepthLevel::intensity) of each pixel
-// of a coarse pyramid level, the depth_m and depth_camera of that level, whose pixels each
-// cover samples_per_side × samples_per_side pixels of the full-resolution frame (2^level):
-// what registering the full frame with RegisterColour and averaging its grey levels down
-// the pyramid gives, for a quarter of the projections per level — each coarse pixel's point
-// is projected once and the colour image read at the samples_per_side² positions its finer
-// pixels would have landed on (offsets of a fine pixel's footprint in the colour image,
-// nearest pixel each; one that falls outside the image counts black, as a fine pixel
-// RegisterColour leaves black). 0 where the coarse pixel has no depth. The rolling shutter
-// as RegisterColour. Asserts the types and samples_per_side >= 1.
+// does not shear the registered colour. Asserts the types and samples_per_side >= 1.
 cv::Mat RegisterGrey(const cv::Mat& depth_m, const PinholeCamera& depth_camera, const cv::Mat& rgb,
                      const PinholeCamera& rgb_camera, int samples_per_side, const core::Rigid3d& rgb_from_depth,
                      int num_threads = 0, double readout_s = 0,

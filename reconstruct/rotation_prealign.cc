@@ -46,12 +46,58 @@ void BlurValid(const PrealignImage& image, double sigma_px, cv::Mat& grey, cv::M
   }
 }
 
-float Bilinear(const cv::Mat& image, int x0, int y0, float a, float c) {
-  const float* top = image.ptr<float>(y0) + x0;
-  const float* bottom = image.ptr<float>(y0 + 1) + x0;
-  const float t = top[0] + a * (top[1] - top[0]);
-  const float b = bottom[0] + a * (bottom[1] - bottom[0]);
-  return t + c * (b - t);
+
+// A pose in float: rotation row-major, translation.
+struct PoseF {
+  float r[9];
+  float t[3];
+};
+
+PoseF ToFloat(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t) {
+  PoseF pose;
+  for (int i = 0; i < 9; ++i) pose.r[i] = static_cast<float>(rotation(i / 3, i % 3));
+  for (int i = 0; i < 3; ++i) pose.t[i] = static_cast<float>(t[i]);
+  return pose;
+}
+
+// One current point's residual and Jacobian, as internal::PrealignResidual says, in float on
+// the packed image (the one implementation: AccumulatePrealign sums it, the tests check it).
+inline bool PointTerm(const internal::PrealignImages& previous, const PoseF& pose, float X, float Y, float Z,
+                      float grey, float offset, float& residual, float (&jacobian)[4]) {
+  const PinholeCamera& pc = previous.camera;
+  const float* r = pose.r;
+  const float zx = r[0] * X + r[1] * Y + r[2] * Z;
+  const float zy = r[3] * X + r[4] * Y + r[5] * Z;
+  const float zz = r[6] * X + r[7] * Y + r[8] * Z;
+  const float px = zx + pose.t[0], py = zy + pose.t[1], pz = zz + pose.t[2];
+  if (!(pz > 1e-3f)) return false;
+  const float inv_z = 1.0f / pz;
+  const float u = pc.fx * px * inv_z + pc.cx, v = pc.fy * py * inv_z + pc.cy;
+  if (!(u >= 1 && v >= 1 && u < static_cast<float>(previous.packed.cols - 2) &&
+        v < static_cast<float>(previous.packed.rows - 2))) {
+    return false;
+  }
+  const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+  const float a = u - static_cast<float>(x0), b = v - static_cast<float>(y0);
+  const float* top = previous.packed.ptr<float>(y0) + 4 * x0;
+  const float* bottom = previous.packed.ptr<float>(y0 + 1) + 4 * x0;
+  float value[4];  // grey, coverage, grad_x, grad_y, bilinear
+  for (int k = 0; k < 4; ++k) {
+    const float upper = top[k] + a * (top[4 + k] - top[k]);
+    const float lower = bottom[k] + a * (bottom[4 + k] - bottom[k]);
+    value[k] = upper + b * (lower - upper);
+  }
+  if (value[1] < 0.5f) return false;  // beside a hole or edge
+  residual = value[0] - grey - offset;
+  // dr/dp = g_x · d(u)/dp + g_y · d(v)/dp; for p = Exp(ω)·R·X + t, dp/dω = −[R X]×, so
+  // dr/dω = (R X) × dr/dp.
+  const float gx = value[2] * pc.fx * inv_z, gy = value[3] * pc.fy * inv_z;
+  const float gz = -(gx * px + gy * py) * inv_z;
+  jacobian[0] = zy * gz - zz * gy;
+  jacobian[1] = zz * gx - zx * gz;
+  jacobian[2] = zx * gy - zy * gx;
+  jacobian[3] = -1.0f;
+  return true;
 }
 
 }  // namespace
@@ -61,30 +107,30 @@ namespace internal {
 PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_px) {
   PrealignImages out;
   out.camera = previous.camera;
+  cv::Mat grey, coverage;
   const auto cached = std::find_if(previous.blurs.begin(), previous.blurs.end(),
                                    [&](const PrealignBlur& b) { return b.sigma_px == blur_sigma_px; });
   if (cached != previous.blurs.end()) {
     assert(cached->grey.size() == previous.grey.size() && cached->coverage.size() == previous.grey.size());
-    out.grey = cached->grey;
-    out.coverage = cached->coverage;
+    grey = cached->grey;
+    coverage = cached->coverage;
   } else {
-    BlurValid(previous, blur_sigma_px, out.grey, out.coverage);
+    BlurValid(previous, blur_sigma_px, grey, coverage);
   }
-  const int width = out.grey.cols, height = out.grey.rows;
-  out.grad_x = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
-  out.grad_y = cv::Mat(height, width, CV_32FC1, cv::Scalar(0));
+  const int width = grey.cols, height = grey.rows;
+  cv::Mat grad_x(height, width, CV_32FC1, cv::Scalar(0)), grad_y(height, width, CV_32FC1, cv::Scalar(0));
   for (int y = 1; y + 1 < height; ++y) {
-    const float* row = out.grey.ptr<float>(y);
-    const float* up = out.grey.ptr<float>(y - 1);
-    const float* down = out.grey.ptr<float>(y + 1);
-    float* gx = out.grad_x.ptr<float>(y);
-    float* gy = out.grad_y.ptr<float>(y);
+    const float* row = grey.ptr<float>(y);
+    const float* up = grey.ptr<float>(y - 1);
+    const float* down = grey.ptr<float>(y + 1);
+    float* gx = grad_x.ptr<float>(y);
+    float* gy = grad_y.ptr<float>(y);
     for (int x = 1; x + 1 < width; ++x) {
       gx[x] = 0.5f * (row[x + 1] - row[x - 1]);
       gy[x] = 0.5f * (down[x] - up[x]);
     }
   }
-  const cv::Mat channels[4] = {out.grey, out.coverage, out.grad_x, out.grad_y};
+  const cv::Mat channels[4] = {grey, coverage, grad_x, grad_y};
   cv::merge(channels, 4, out.packed);
   return out;
 }
@@ -92,45 +138,24 @@ PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_
 bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t,
                       const Eigen::Vector3d& point, float grey, double offset, double& residual,
                       Eigen::Vector4d& jacobian) {
-  const PinholeCamera& pc = previous.camera;
-  const double fx = pc.fx, fy = pc.fy, cx = pc.cx, cy = pc.cy;
-  const int width = previous.grey.cols, height = previous.grey.rows;
-  const Eigen::Vector3d z = rotation * point;
-  const Eigen::Vector3d p = z + t;
-  if (!(p.z() > 1e-3)) return false;
-  const double u = fx * p.x() / p.z() + cx, v = fy * p.y() / p.z() + cy;
-  if (!(u >= 1 && v >= 1 && u < width - 2 && v < height - 2)) return false;
-  const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-  const float a = static_cast<float>(u - x0), c = static_cast<float>(v - y0);
-  if (Bilinear(previous.coverage, x0, y0, a, c) < 0.5f) return false;  // beside a hole or edge
-  residual = double{Bilinear(previous.grey, x0, y0, a, c)} - double{grey} - offset;
-  const double gx = Bilinear(previous.grad_x, x0, y0, a, c), gy = double{Bilinear(previous.grad_y, x0, y0, a, c)};
-  const double inv_z = 1.0 / p.z();
-  // d(u, v)/dp · dp/dω for p = Exp(ω)·R·X + t: dp/dω = −[R X]×.
-  const Eigen::Vector3d du_dp(fx * inv_z, 0, -fx * p.x() * inv_z * inv_z);
-  const Eigen::Vector3d dv_dp(0, fy * inv_z, -fy * p.y() * inv_z * inv_z);
-  const Eigen::Vector3d g = gx * du_dp + gy * dv_dp;  // dr/dp
-  jacobian.head<3>() = z.cross(g);                     // gᵀ(−[z]×) = (z × g)ᵀ
-  jacobian[3] = -1;
+  float r = 0, j[4];
+  if (!PointTerm(previous, ToFloat(rotation, t), static_cast<float>(point.x()), static_cast<float>(point.y()),
+                 static_cast<float>(point.z()), grey, static_cast<float>(offset), r, j)) {
+    return false;
+  }
+  residual = r;
+  for (int k = 0; k < 4; ++k) jacobian[k] = j[k];
   return true;
 }
 
 PrealignSums AccumulatePrealign(const PrealignImages& previous, const Eigen::Matrix3d& rotation,
                                 const Eigen::Vector3d& t, const PrealignPoints& points, double offset,
                                 double huber, int num_threads) {
-  assert(previous.packed.type() == CV_32FC4 && previous.packed.isContinuous());
+  assert(previous.packed.type() == CV_32FC4);
   assert(points.y.size() == points.size() && points.z.size() == points.size() &&
          points.grey.size() == points.size());
-  const PinholeCamera& pc = previous.camera;
-  const float fx = pc.fx, fy = pc.fy, cx = pc.cx, cy = pc.cy;
-  const int width = previous.packed.cols, height = previous.packed.rows;
-  const float u_end = static_cast<float>(width - 2), v_end = static_cast<float>(height - 2);
-  float r[9];
-  for (int i = 0; i < 9; ++i) r[i] = static_cast<float>(rotation(i / 3, i % 3));
-  const float tx = static_cast<float>(t.x()), ty = static_cast<float>(t.y()), tz = static_cast<float>(t.z());
+  const PoseF pose = ToFloat(rotation, t);
   const float off = static_cast<float>(offset), hub = static_cast<float>(huber);
-  const float* image = previous.packed.ptr<float>(0);
-  const size_t row_floats = 4 * static_cast<size_t>(width);
 
   // Float partial sums per chunk (short enough that float keeps ~6 digits of each).
   constexpr int kChunk = 256;
@@ -146,31 +171,8 @@ PrealignSums AccumulatePrealign(const PrealignImages& previous, const Eigen::Mat
       Partial& s = partial[c];
       const int end = std::min(n, (c + 1) * kChunk);
       for (int i = c * kChunk; i < end; ++i) {
-        const float X = points.x[i], Y = points.y[i], Z = points.z[i];
-        const float zx = r[0] * X + r[1] * Y + r[2] * Z;
-        const float zy = r[3] * X + r[4] * Y + r[5] * Z;
-        const float zz = r[6] * X + r[7] * Y + r[8] * Z;
-        const float px = zx + tx, py = zy + ty, pz = zz + tz;
-        if (!(pz > 1e-3f)) continue;
-        const float inv_z = 1.0f / pz;
-        const float u = fx * px * inv_z + cx, v = fy * py * inv_z + cy;
-        if (!(u >= 1 && v >= 1 && u < u_end && v < v_end)) continue;
-        const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-        const float a = u - static_cast<float>(x0), b = v - static_cast<float>(y0);
-        const float* top = image + y0 * row_floats + 4 * x0;
-        const float* bottom = top + row_floats;
-        float value[4];  // grey, coverage, grad_x, grad_y, bilinear
-        for (int k = 0; k < 4; ++k) {
-          const float upper = top[k] + a * (top[4 + k] - top[k]);
-          const float lower = bottom[k] + a * (bottom[4 + k] - bottom[k]);
-          value[k] = upper + b * (lower - upper);
-        }
-        if (value[1] < 0.5f) continue;  // beside a hole or edge
-        const float res = value[0] - points.grey[i] - off;
-        // dr/dp, then J = z × dr/dp (PrealignResidual).
-        const float gx = value[2] * fx * inv_z, gy = value[3] * fy * inv_z;
-        const float gz = -(gx * px + gy * py) * inv_z;
-        const float j[4] = {zy * gz - zz * gy, zz * gx - zx * gz, zx * gy - zy * gx, -1.0f};
+        float res = 0, j[4];
+        if (!PointTerm(previous, pose, points.x[i], points.y[i], points.z[i], points.grey[i], off, res, j)) continue;
         const float abs_r = std::abs(res);
         const float w = abs_r <= hub ? 1.0f : hub / abs_r;
         int k = 0;

@@ -135,11 +135,11 @@ RotationPrealignResult PrealignRotation(const PrealignImage& previous, const Pre
 
 namespace internal {
 
-// The previous frame as the alignment reads it: grey image and coverage blurred over the
-// pixels with depth, the grey image's central differences (per pixel), its camera.
+// The previous frame as the alignment reads it: per pixel (CV_32FC4, side by side for one
+// read per bilinear corner) the grey image and coverage blurred over the pixels with depth
+// and the grey image's central differences along x and y; its camera.
 struct PrealignImages {
-  cv::Mat grey, coverage, grad_x, grad_y;
-  cv::Mat packed;  // CV_32FC4: grey, coverage, grad_x, grad_y of each pixel side by side
+  cv::Mat packed;
   PinholeCamera camera;
 };
 
@@ -150,7 +150,8 @@ PrealignImages PreparePrevious(const PrealignImage& previous, double blur_sigma_
 // One current point's residual I_prev(π(R·X + t)) − grey − offset (X: the point in the
 // current camera frame, m) and its derivative by [ω; offset], ω the left increment of R
 // (Exp(ω)·R); false when the point leaves the image or lands beside a hole (coverage < 0.5).
-// Exposed for the finite-difference test; the reference AccumulatePrealign is checked against.
+// Computed in float: the per-point term AccumulatePrealign sums, exposed for the
+// finite-difference test and as that sum's reference.
 bool PrealignResidual(const PrealignImages& previous, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t,
                       const Eigen::Vector3d& point, float grey, double offset, double& residual,
                       Eigen::Vector4d& jacobian);

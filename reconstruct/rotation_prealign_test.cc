@@ -320,10 +320,10 @@ TEST(PrealignRotation, ResidualDerivativesMatchFiniteDifferences) {
   EXPECT_EQ(checked, 16);
 }
 
-// The float, chunked accumulation against the double reference summed point by point, on
-// a wall seen through a small turn with holes (a quarter of the points land beside one, or
-// outside the image) and residuals on both sides of the Huber threshold. Float keeps ~7
-// digits per term and the chunks' sums are exact to ~1e-6 of their size: 1e-4 of the
+// The chunked float accumulation against the same per-point terms (PrealignResidual) weighted
+// and summed one by one in double, on a wall seen through a small turn with holes (a quarter
+// of the points land beside one, or outside the image) and residuals on both sides of the
+// Huber threshold. Float sums of 256 terms are exact to ~1e-6 of their size: 1e-4 of the
 // largest entry covers that with margin (a wrong term or weight is off by whole per cent).
 // Any thread count gives the same bits: the chunks add up in one order.
 TEST(PrealignRotation, FloatAccumulationMatchesTheReferenceForAnyThreadCount) {
