@@ -83,7 +83,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("reuse_max_correction_m", r.reuse_max_correction_m)
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg)
       .Number("reuse_max_motion_m", r.reuse_max_motion_m)
-      .Number("reuse_max_motion_deg", r.reuse_max_motion_deg);
+      .Number("reuse_max_motion_deg", r.reuse_max_motion_deg)
+      .Number("reuse_lead", r.reuse_lead);
   JsonObject dynamic, keyframes, prealign;
   prealign.Int("iterations", r.prealign.iterations)
       .Number("blur_sigma_px", r.prealign.blur_sigma_px)
@@ -618,6 +619,10 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--reuse-max-motion-deg", r.reuse_max_motion_deg,
                  "the same limit on the rotation, degrees")
+      ->capture_default_str();
+  app.add_option("--reuse-lead", r.reuse_lead,
+                 "cast the model view from where the camera will be this fraction of the view's reuse window "
+                 "later (constant velocity), so that the frames reusing it lie on both sides of it, [0, 1]")
       ->capture_default_str();
   app.add_option("--integrate-between-raycasts", r.integrate_between_raycasts,
                  "integrate the depth of the frames tracked between two raycasts too (false: only of the "

@@ -119,6 +119,7 @@ std::string ReconstructionOptions::Check() const {
   if (!(reuse_max_motion_deg > 0) || !std::isfinite(reuse_max_motion_deg)) {
     return Fail("reuse_max_motion_deg", reuse_max_motion_deg, "> 0 and finite");
   }
+  if (!(reuse_lead >= 0 && reuse_lead <= 1)) return Fail("reuse_lead", reuse_lead, "in [0, 1]");
   const ReconstructionOptions e = Effective(*this);
   if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
   if (std::string m = e.depth.Check(); !m.empty()) return "depth." + m;
@@ -349,14 +350,18 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
     keyframes_.Add(world_from_depth,
                    DescribeFrame(coarsest.depth_m, coarsest.intensity, options_.keyframes.descriptor_width));
   }
-  // Without integrate_between_raycasts a frame that reuses the model view only tracks: its
+  // Without integrate_between_raycasts a frame that reuses the model view only tracks (its
   // depth would change a volume nobody looks at until the next raycast, whose frame fuses
-  // nearly the same surfaces.
-  if (options_.integrate_between_raycasts || raycast || frame.world_from_depth) {
+  // nearly the same surfaces), unless it lies as far from the last integrated frame as a
+  // view may be reused: with reuse_lead a view outlasts that distance, and the volume still
+  // gains a frame as often as without it (its surface averages as many readings).
+  const bool moved_on = last_integrated_ && Beyond(core::ComparePoses(*last_integrated_, world_from_depth));
+  if (options_.integrate_between_raycasts || raycast || frame.world_from_depth || moved_on) {
+    last_integrated_ = world_from_depth;
     Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
   }
   if (raycast) {
-    UpdateModel(world_from_depth, record, !frame.world_from_depth);
+    UpdateModel(normal && !frame.world_from_depth ? LeadPose() : world_from_depth, record, !frame.world_from_depth);
   } else if (frame.world_from_depth && !options_.dynamic.enabled()) {
     model_.reset();
   }
@@ -608,6 +613,26 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
   return last * last_from_current;
 }
 
+core::Rigid3d Reconstruction::LeadPose() const {
+  const auto& poses = trajectory_.poses();
+  const core::Rigid3d& current = poses.back().world_from_sensor;
+  if (!(options_.reuse_lead > 0) || poses.size() < 2) return current;
+  const core::Rigid3d& previous = poses[poses.size() - 2].world_from_sensor;
+  const core::PoseError step = core::ComparePoses(previous, current);
+  // Frames until the motion would reach a limit (no motion: raycast_interval).
+  double frames = options_.raycast_interval;
+  if (step.translation_m > 0) frames = std::min(frames, options_.reuse_max_motion_m / step.translation_m);
+  if (step.rotation_rad > 0) {
+    frames = std::min(frames, options_.reuse_max_motion_deg / (step.rotation_rad * kRadToDeg));
+  }
+  // A view that can serve only the next frame (raycast_interval 1, or motion that reaches
+  // the limits within a frame) is cast for every frame anyway: leading it saves no cast (and
+  // on the 10 Hz walk, 45 mm per frame along a cabinet front that constrains little, views
+  // cast 0.7-0.9 frames ahead let the drift run away: 4 → 73 mm).
+  if (frames <= 1) return current;
+  return core::Interpolate(previous, current, 1 + options_.reuse_lead * frames);
+}
+
 bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {
   assert(model_.has_value());
   // The next frame's pose at constant velocity: this one's motion since the last fused
@@ -618,7 +643,10 @@ bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {
     const core::Rigid3d& previous = poses[poses.size() - 2].world_from_sensor;
     next = world_from_depth * (previous.Inverse() * world_from_depth);
   }
-  const core::PoseError moved = core::ComparePoses(model_->world_from_camera, next);
+  return Beyond(core::ComparePoses(model_->world_from_camera, next));
+}
+
+bool Reconstruction::Beyond(const core::PoseError& moved) const {
   return moved.translation_m > options_.reuse_max_motion_m ||
          moved.rotation_rad * kRadToDeg > options_.reuse_max_motion_deg;
 }

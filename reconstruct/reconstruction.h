@@ -74,7 +74,8 @@ struct ReconstructionOptions {
   int raycast_interval = 8;
   // Integrate the depth of the frames tracked between two raycasts too (true), or only of
   // the frames after which the model is raycast (false: every raycast_interval-th frame
-  // tracked normally and every frame that raycasts at once; posed frames always). The frames
+  // tracked normally and every frame that raycasts at once; posed frames always) and of those
+  // as far from the last integrated frame as reuse_max_motion_m / _deg. The frames
   // between still get their pose (the trajectory, thermal mapping) but add nothing to the
   // volume: at 30 Hz a surface is seen in dozens of frames, and integration is, with the
   // raycast, the costliest stage (README, Reconstruction: Speed, where both are measured).
@@ -100,6 +101,14 @@ struct ReconstructionOptions {
   // instead of 45 at a fixed interval of 2, ATE unchanged with the true depth field.
   double reuse_max_motion_m = 0.04;
   double reuse_max_motion_deg = 2.5;
+  // A frame tracked normally casts the view it leaves for the next frames not from its own
+  // pose but from where the camera will be this fraction of the reuse window later: the
+  // pose extrapolated at its constant velocity by reuse_lead · n frames, n the frames after
+  // which that motion would pass reuse_max_motion_m / _deg (at most raycast_interval; when
+  // n <= 1 the frame's own pose: such a view is recast after every frame anyway). The
+  // frames that reuse the view then lie on both sides of it, so at the same distance limit
+  // one view serves up to (1 + reuse_lead)× as many frames. [0, 1]; 0: the frame's own pose.
+  double reuse_lead = 1;
   MeshOptions mesh;
   // Paint the model with the rgb stream (when the rig has one and frames are given).
   bool integrate_colour = true;
@@ -274,6 +283,10 @@ class Reconstruction {
   // Whether the next frame, predicted at constant velocity from this pose, would be beyond
   // reuse_max_motion_m / _deg from the pose the model view was cast at.
   bool ViewTooFar(const core::Rigid3d& world_from_depth) const;
+  // Whether a motion passes reuse_max_motion_m or _deg.
+  bool Beyond(const core::PoseError& moved) const;
+  // Where a frame tracked normally (the trajectory's last pose) casts its view: reuse_lead.
+  core::Rigid3d LeadPose() const;
   // Raycasts the model view at world_from_depth; with colour only `for_tracking` (the
   // photometric term; a posed frame's view serves the dynamic mask alone).
   void UpdateModel(const core::Rigid3d& world_from_depth, FrameRecord& record, bool for_tracking = true);
@@ -302,6 +315,7 @@ class Reconstruction {
   // volume does not change while no frame is fused, so each is cast once per loss).
   std::vector<std::pair<int, ModelPyramid>> relocalisation_views_;
   int fused_since_raycast_ = 0;        // frames fused since model_ was raycast
+  std::optional<core::Rigid3d> last_integrated_;  // world_from_depth of the last integrated frame
   bool model_for_tracking_ = false;    // model_ was cast for tracking (with colour), not for a posed frame
   bool lost_ = false;
   std::vector<double> recent_residuals_m_;  // of the last tracked frames, oldest first

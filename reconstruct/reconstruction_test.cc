@@ -558,6 +558,7 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   third.raycast_interval = 3;
   third.reuse_max_motion_m = 1e3;  // the interval alone (the motion rule: the test below)
   third.reuse_max_motion_deg = 180;
+  third.reuse_lead = 0;  // cast from the frame's pose (views cast ahead: ViewsCastAheadServeMoreFrames)
   const Outcome reference = ReconstructAndEvaluate(smooth, every);
   const Outcome run = ReconstructAndEvaluate(smooth, third);
   int cast = 0, since = 0;
@@ -609,6 +610,17 @@ TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   EXPECT_GT(recovered, 0);
 }
 
+// Where a frame tracked normally at `pose` after `previous` casts its view (reuse_lead):
+// extrapolated at constant velocity by reuse_lead times the frames that motion takes to
+// reach the reuse limits (at most raycast_interval; one or fewer: its own pose).
+core::Rigid3d LeadPose(const core::Rigid3d& previous, const core::Rigid3d& pose, const ReconstructionOptions& o) {
+  const core::PoseError step = core::ComparePoses(previous, pose);
+  double frames = o.raycast_interval;
+  if (step.translation_m > 0) frames = std::min(frames, o.reuse_max_motion_m / step.translation_m);
+  if (step.rotation_rad > 0) frames = std::min(frames, o.reuse_max_motion_deg * std::numbers::pi / 180 / step.rotation_rad);
+  return frames <= 1 ? pose : core::Interpolate(previous, pose, 1 + o.reuse_lead * frames);
+}
+
 // reuse_max_motion_m / _deg: a frame tracked normally casts the model view again before
 // raycast_interval when the next frame, predicted at constant velocity, would be beyond the
 // limits from the pose the view was cast at; every decision is recomputed here from the
@@ -647,7 +659,7 @@ TEST(Reconstruction, ModelViewIsCastAgainWhenTheCameraMovedFarFromIt) {
       ++cast;
       by_rule += normal && !due && far;
       since = 0;
-      view = pose;
+      view = i > 0 && normal ? LeadPose(run.poses[i - 1].world_from_sensor, pose, by_motion) : pose;
     }
   }
   int counted_casts = 0;
@@ -660,9 +672,46 @@ TEST(Reconstruction, ModelViewIsCastAgainWhenTheCameraMovedFarFromIt) {
   EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.001);
 }
 
+// reuse_lead: views cast ahead of the camera serve the frames on both sides of them, so a
+// sweep casts fewer of them (1 vs 0) while as many frames are integrated (the motion since
+// the last integrated frame decides those), and tracking stays within 1 mm of casting from
+// the frame's own pose (the view's distance to the frames using it is bounded alike).
+TEST(Reconstruction, ViewsCastAheadServeMoreFrames) {
+  const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  ReconstructionOptions ahead = TestOptions(), own = TestOptions();
+  ahead.reuse_lead = 1;
+  own.reuse_lead = 0;
+  // This 160×120 scan's motion (3-10 mm, 0.2-0.6° per frame) under limits a few frames wide,
+  // so that the limits, not the corrections, decide the casts.
+  for (ReconstructionOptions* o : {&ahead, &own}) {
+    o->reuse_max_motion_m = 0.02;
+    o->reuse_max_motion_deg = 1.2;
+    o->reuse_max_correction_m = 0.05;
+    o->reuse_max_correction_deg = 2;
+  }
+  const Outcome run = ReconstructAndEvaluate(smooth, ahead);
+  const Outcome reference = ReconstructAndEvaluate(smooth, own);
+  const auto count = [](const Outcome& o, bool FrameRecord::*field) {
+    int n = 0;
+    for (const FrameRecord& f : o.frames) n += f.*field;
+    return n;
+  };
+  int cast = 0, reference_cast = 0;
+  for (const FrameRecord& f : run.frames) cast += f.raycast_ms > 0;
+  for (const FrameRecord& f : reference.frames) reference_cast += f.raycast_ms > 0;
+  std::printf("casts %d ahead, %d from the frames' poses; integrated %d and %d; ATE %.2f and %.2f mm\n", cast,
+              reference_cast, count(run, &FrameRecord::integrated), count(reference, &FrameRecord::integrated),
+              run.eval.ate_m.rmse * 1e3, reference.eval.ate_m.rmse * 1e3);
+  EXPECT_LE(cast * 4, reference_cast * 3);  // at least a quarter fewer
+  EXPECT_GE(count(run, &FrameRecord::integrated) * 5, count(reference, &FrameRecord::integrated) * 4);
+  EXPECT_LT(run.eval.ate_m.rmse, 0.010);
+  EXPECT_LT(std::abs(run.eval.ate_m.rmse - reference.eval.ate_m.rmse), 0.001);
+}
+
 // integrate_between_raycasts false (the default): exactly the frames after which the model
-// is raycast are integrated (the others keep their pose, with integrate_ms 0), and tracking
-// is as accurate as integrating every frame (the default's surface against the truth:
+// is raycast, and those as far from the last integrated frame as the reuse limits, are
+// integrated (the others keep their pose, with integrate_ms 0), and tracking is as accurate
+// as integrating every frame (the default's surface against the truth:
 // ModelSurfaceLiesOnTheTruthMesh).
 TEST(Reconstruction, FramesBetweenRaycastsAreTrackedButNotIntegrated) {
   const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
@@ -671,14 +720,25 @@ TEST(Reconstruction, FramesBetweenRaycastsAreTrackedButNotIntegrated) {
   between.integrate_between_raycasts = false;
   const Outcome reference = ReconstructAndEvaluate(smooth, all);
   const Outcome run = ReconstructAndEvaluate(smooth, between);
-  int integrated = 0;
-  for (const FrameRecord& f : run.frames) {
+  ASSERT_EQ(run.poses.size(), run.frames.size());
+  int integrated = 0, moved_on = 0;
+  core::Rigid3d last;  // the last integrated frame's pose
+  for (size_t i = 0; i < run.frames.size(); ++i) {
+    const FrameRecord& f = run.frames[i];
     ASSERT_TRUE(f.fused) << "frame " << f.index;
-    // The first frame initialises the model and raycasts; so does every other integrated one.
-    EXPECT_EQ(f.integrated, f.raycast_ms > 0) << "frame " << f.index;
+    const core::Rigid3d& pose = run.poses[i].world_from_sensor;
+    const core::PoseError moved = core::ComparePoses(last, pose);
+    const bool far = moved.translation_m > between.reuse_max_motion_m ||
+                     moved.rotation_rad * 180 / std::numbers::pi > between.reuse_max_motion_deg;
+    // The first frame initialises the model and raycasts; so does every other integrated one
+    // but those that moved on from the last integrated one while reusing a view cast ahead.
+    EXPECT_EQ(f.integrated, f.raycast_ms > 0 || (i > 0 && far)) << "frame " << f.index;
     EXPECT_EQ(f.integrate_ms > 0, f.integrated) << "frame " << f.index;
     integrated += f.integrated;
+    moved_on += f.integrated && f.raycast_ms == 0;
+    if (f.integrated) last = pose;
   }
+  EXPECT_GT(moved_on, 0);  // views cast ahead (reuse_lead 1) outlast the limits
   for (const FrameRecord& f : reference.frames) EXPECT_TRUE(f.integrated) << "frame " << f.index;
   EXPECT_LT(integrated, static_cast<int>(run.frames.size()));
   // At least every raycast_interval-th (8); the motion limits cast more often on this scan.
@@ -725,6 +785,11 @@ TEST(ReconstructionOptions, CheckNamesTheField) {
     o = ReconstructionOptions();
     o.reuse_max_motion_deg = bad;
     EXPECT_NE(o.Check().find("reuse_max_motion_deg"), std::string::npos) << bad;
+  }
+  for (double bad : {-0.1, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    o = ReconstructionOptions();
+    o.reuse_lead = bad;
+    EXPECT_NE(o.Check().find("reuse_lead"), std::string::npos) << bad;
   }
   ScanReconstructionOptions s;
   s.first_frame = -1;

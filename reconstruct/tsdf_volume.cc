@@ -3,6 +3,9 @@
 #include <cassert>
 #include <cmath>
 #include <mutex>
+#include <new>
+
+#include <sys/mman.h>
 
 #include <absl/container/flat_hash_set.h>
 
@@ -44,6 +47,32 @@ struct TsdfVolume::RegionIndex {
   std::vector<Eigen::Vector3i> keys;
   std::vector<std::vector<const VoxelBlock*>> blocks;
 };
+
+BlockArena::~BlockArena() {
+  for (void* chunk : chunks_) munmap(chunk, kChunkBytes);
+}
+
+void* BlockArena::Allocate() {
+  if (used_in_last_ + kStride > kChunkBytes) {
+    // Populated at once: one call instead of a page fault per 4 KB on first touch.
+    void* chunk = mmap(nullptr, kChunkBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_POPULATE, -1, 0);
+    if (chunk == MAP_FAILED) throw std::bad_alloc();
+    chunks_.push_back(chunk);
+    used_in_last_ = 0;
+  }
+  void* at = static_cast<char*>(chunks_.back()) + used_in_last_;
+  used_in_last_ += kStride;
+  return at;
+}
+
+VoxelBlock* BlockArena::Construct(void* at, const BlockKey& key) {
+  static_assert(std::is_trivially_destructible_v<VoxelBlock>);  // never destroyed one by one
+  // Copied from a fresh block: value-initialising 512 voxels one by one took 4 µs a block.
+  static const VoxelBlock kFresh{};
+  VoxelBlock* block = new (at) VoxelBlock(kFresh);
+  block->key = key;
+  return block;
+}
 
 TsdfVolume::TsdfVolume(const TsdfOptions& options)
     : options_(options), impl_(std::make_unique<Impl>()), regions_(std::make_unique<RegionIndex>()) {
@@ -298,7 +327,7 @@ void TsdfVolume::ForEachBlockInRegions(
   RegionIndex& r = *regions_;
   const std::lock_guard<std::mutex> lock(r.mutex);
   for (; r.num_indexed < impl_->blocks.size(); ++r.num_indexed) {
-    const VoxelBlock* block = impl_->blocks[r.num_indexed].get();
+    const VoxelBlock* block = impl_->blocks[r.num_indexed];
     const Eigen::Vector3i key(block->key.x() >> 3, block->key.y() >> 3, block->key.z() >> 3);
     const auto [it, inserted] = r.slot.try_emplace(PackKey(key.x(), key.y(), key.z()),
                                                    static_cast<int32_t>(r.keys.size()));

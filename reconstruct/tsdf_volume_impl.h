@@ -49,13 +49,41 @@ void RunChunks(int n, const F& f) {
 
 }  // namespace internal
 
+// Storage for voxel blocks in chunks of memory mapped from the system, handed out in order
+// and never moved or freed before the arena. A volume gains ~1,300 blocks (6 KB each) per
+// integrated frame at 5 mm on a sweep; made one by one (new, value-initialised voxel by
+// voxel, then page-faulted on first touch) they cost 3.9 µs each in the serial part of
+// Integrate. A chunk (8 MB, 1,362 blocks) is populated when mapped, and Integrate has each new
+// block copied from a fresh one by the thread that first updates it. At most one chunk's
+// unused tail (8 MB) is resident beyond the blocks. Not thread-safe.
+class BlockArena {
+ public:
+  BlockArena() = default;
+  BlockArena(const BlockArena&) = delete;
+  BlockArena& operator=(const BlockArena&) = delete;
+  ~BlockArena();
+  // Memory for one block, not yet a block (construct it with Construct before any use);
+  // throws std::bad_alloc when the system has no memory to map.
+  void* Allocate();
+  // Makes a fresh block (Voxel's defaults) with the key at memory from Allocate.
+  static VoxelBlock* Construct(void* at, const BlockKey& key);
+
+ private:
+  static constexpr size_t kChunkBytes = size_t{8} << 20;
+  static constexpr size_t kStride =
+      (sizeof(VoxelBlock) + alignof(VoxelBlock) - 1) / alignof(VoxelBlock) * alignof(VoxelBlock);
+  std::vector<void*> chunks_;
+  size_t used_in_last_ = kChunkBytes;  // bytes handed out of chunks_.back()
+};
+
 struct TsdfVolume::Impl {
   // Packed key → index in `blocks`. An open-addressing table (Abseil's SwissTable): a
   // lookup is one probe of a flat array where std::unordered_map chases a node pointer
   // (measured: bench/tsdf_speed.cc, README).
   absl::flat_hash_map<uint64_t, int32_t> index;
-  // Stable addresses: blocks are never moved once created.
-  std::vector<std::unique_ptr<VoxelBlock>> blocks;
+  // Stable addresses: blocks are never moved once created. They live in `arena`.
+  std::vector<VoxelBlock*> blocks;
+  BlockArena arena;
   // Per block, the last Integrate() call that listed it as visible (dedup of the list).
   std::vector<uint32_t> visit_stamp;
   uint32_t integrate_count = 0;
@@ -65,22 +93,24 @@ struct TsdfVolume::Impl {
   // visible blocks, the viewing ray's x per image column.
   std::vector<std::vector<uint64_t>> keys;
   std::vector<VoxelBlock*> visible;
+  std::vector<uint64_t> visible_fresh;  // per visible block: its packed key if created unconstructed, else ~0
   std::vector<float> ray_x;
 
   VoxelBlock* Find(uint64_t packed) const {
     const auto it = index.find(packed);
-    return it == index.end() ? nullptr : blocks[it->second].get();
+    return it == index.end() ? nullptr : blocks[it->second];
   }
-  // Index of the block, created if missing.
-  int32_t GetOrCreate(const BlockKey& key) {
-    const auto [it, inserted] =
+  // Index of the block, created if missing (constructed unless `construct` is false: then
+  // `inserted` says the caller must construct it, BlockArena::Construct, before any use).
+  int32_t GetOrCreate(const BlockKey& key, bool construct = true, bool* inserted = nullptr) {
+    const auto [it, added] =
         index.try_emplace(internal::PackKey(key.x(), key.y(), key.z()), static_cast<int32_t>(blocks.size()));
-    if (inserted) {
-      auto block = std::make_unique<VoxelBlock>();
-      block->key = key;
-      blocks.push_back(std::move(block));
+    if (added) {
+      void* at = arena.Allocate();
+      blocks.push_back(construct ? BlockArena::Construct(at, key) : static_cast<VoxelBlock*>(at));
       visit_stamp.push_back(0);
     }
+    if (inserted != nullptr) *inserted = added;
     return it->second;
   }
 };

@@ -152,6 +152,38 @@ TEST(TsdfStorage, BoundsAndMemory) {
   EXPECT_EQ(n, 2);
 }
 
+// Blocks live in chunks of memory handed out in order (BlockArena): several chunks' worth
+// must come out at the defaults, keep their addresses as more are made, and not overlap.
+TEST(TsdfStorage, BlocksKeepTheirAddressesAndDefaultsAcrossChunks) {
+  TsdfVolume volume(SmallOptions());
+  constexpr int kBlocks = 4000;  // ~3 chunks of 8 MB
+  std::vector<const VoxelBlock*> made;
+  for (int i = 0; i < kBlocks; ++i) {
+    VoxelBlock& block = volume.GetOrCreateBlock(BlockKey(i % 20 - 10, (i / 20) % 20, i / 400 - 5));
+    // Marks its first and last voxels: a later block overlapping it would overwrite them.
+    block.voxels.front().weight = static_cast<float>(i);
+    block.voxels.back().sdf = -static_cast<float>(i);
+    made.push_back(&block);
+  }
+  ASSERT_EQ(volume.NumBlocks(), static_cast<size_t>(kBlocks));
+  for (int i = 0; i < kBlocks; ++i) {
+    const BlockKey key(i % 20 - 10, (i / 20) % 20, i / 400 - 5);
+    ASSERT_EQ(volume.FindBlock(key), made[i]) << i;
+    ASSERT_EQ(made[i]->key, key) << i;
+    ASSERT_EQ(made[i]->voxels.front().weight, static_cast<float>(i)) << i;
+    ASSERT_EQ(made[i]->voxels.back().sdf, -static_cast<float>(i)) << i;
+    for (int v = 1; v < kBlockVoxels; ++v) {
+      const Voxel& voxel = made[i]->voxels[v];
+      if (v < kBlockVoxels - 1) {
+        ASSERT_EQ(voxel.sdf, 1.0f) << i << " " << v;
+      }
+      ASSERT_EQ(voxel.weight, 0.0f) << i << " " << v;
+      ASSERT_EQ(voxel.colour, Rgb8::Zero()) << i << " " << v;
+      ASSERT_EQ(voxel.colour_weight, 0) << i << " " << v;
+    }
+  }
+}
+
 // Every block is reported once, with its region's box holding it; regions failing the test
 // hide exactly their blocks; blocks created between calls are indexed.
 TEST(TsdfStorage, ForEachBlockInRegions) {
@@ -335,6 +367,7 @@ TEST(TsdfIntegrate, FrontalPlaneIsExact) {
       const bool in_view = camera.NearestPixel(camera.Project(p), px, py);
       if (!in_view || p.z() > 1.0f + t + 1e-4f) {
         EXPECT_EQ(voxel.weight, 0) << p.transpose();
+        EXPECT_EQ(voxel.sdf, 1.0f) << p.transpose();  // made by the update's thread: the default
         continue;
       }
       if (p.z() > 1.0f + t - 1e-4f) continue;  // on the cut-off, either way
@@ -606,6 +639,10 @@ TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithTheNoiseBand) {
 TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithARollingShutter) {
   if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
   ExpectSimdWritesTheScalarBits(SmallOptions(2), 16);
+  // Rows of 8 voxels mostly within one band (their pose broadcast) and mostly across
+  // several (gathered per lane): 55 and 1.7 image rows per band.
+  ExpectSimdWritesTheScalarBits(SmallOptions(2), 2);
+  ExpectSimdWritesTheScalarBits(SmallOptions(2), 64);
 }
 
 // A rolling-shutter colour camera moving sideways during its readout: band k of its 4 bands
