@@ -626,7 +626,8 @@ int RunReconstruct(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--integrate-between-raycasts", r.integrate_between_raycasts,
                  "integrate the depth of the frames tracked between two raycasts too (false: only of the "
-                 "frames after which the model is raycast; the others still get a pose)")
+                 "frames after which the model is raycast and of those as far as the reuse limits from the last "
+                 "integrated one; the others still get a pose)")
       ->capture_default_str();
   app.add_option("--dynamic-margin", r.dynamic.margin_m,
                  "depth this far (m, or dynamic fraction of its depth if more) in front of the model it was "
