@@ -626,9 +626,8 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   const size_t blocks_before = impl.blocks.size();
   for (const auto& chunk_keys : keys) {
     for (const uint64_t key : chunk_keys) {
-      const auto it = impl.index.find(key);
       bool created = false;
-      const int32_t index = it != impl.index.end() ? it->second : impl.GetOrCreate(Unpack(key), false, &created);
+      const int32_t index = impl.GetOrAllocate(key, created);
       if (impl.visit_stamp[index] == stamp) continue;
       impl.visit_stamp[index] = stamp;
       visible.push_back(impl.blocks[index]);

@@ -100,18 +100,26 @@ struct TsdfVolume::Impl {
     const auto it = index.find(packed);
     return it == index.end() ? nullptr : blocks[it->second];
   }
-  // Index of the block, created if missing (constructed unless `construct` is false: then
-  // `inserted` says the caller must construct it, BlockArena::Construct, before any use).
-  int32_t GetOrCreate(const BlockKey& key, bool construct = true, bool* inserted = nullptr) {
-    const auto [it, added] =
-        index.try_emplace(internal::PackKey(key.x(), key.y(), key.z()), static_cast<int32_t>(blocks.size()));
-    if (added) {
-      void* at = arena.Allocate();
-      blocks.push_back(construct ? BlockArena::Construct(at, key) : static_cast<VoxelBlock*>(at));
-      visit_stamp.push_back(0);
-    }
-    if (inserted != nullptr) *inserted = added;
-    return it->second;
+  // Index of the block, created if missing.
+  int32_t GetOrCreate(const BlockKey& key) {
+    bool added = false;
+    const int32_t i = GetOrAllocate(internal::PackKey(key.x(), key.y(), key.z()), added);
+    if (added) BlockArena::Construct(blocks[i], key);
+    return i;
+  }
+  // Index of the block with this packed key; when missing, memory for it is allocated and
+  // indexed, `added` set, and the caller must construct it (BlockArena::Construct) before
+  // any other use. Throws std::bad_alloc (out of memory) before the key is indexed.
+  int32_t GetOrAllocate(uint64_t packed, bool& added) {
+    added = false;
+    if (const auto it = index.find(packed); it != index.end()) return it->second;
+    const auto i = static_cast<int32_t>(blocks.size());
+    void* at = arena.Allocate();
+    blocks.push_back(static_cast<VoxelBlock*>(at));
+    visit_stamp.push_back(0);
+    index.emplace(packed, i);
+    added = true;
+    return i;
   }
 };
 
