@@ -86,6 +86,7 @@ int Run(int argc, char** argv) {
   std::printf("%5s %10s %10s %10s %10s %6s %9s %9s\n", "frame", "prepare", "(cpu)", "track", "(cpu)",
               "iters", "err mm", "err deg");
   std::vector<double> prepare_ms, track_ms, prepare_cpu, track_cpu, err_mm;
+  std::vector<double> prepare_part_ms[4];  // undistort depth, undistort colour, pyramid, register colour
   const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
   for (int i = 0; i < n; ++i) {
     const double t = scan.DepthClockTime(hw::core::Stream::kDepth, i);
@@ -102,25 +103,33 @@ int Run(int argc, char** argv) {
     const hw::core::Rigid3d depth_from_rgb_now = pose->Inverse() * *rgb_pose * rig.depth_from_rgb;
 
     double best_prepare = 1e300, best_prepare_cpu = 1e300;
+    double best_part[4] = {1e300, 1e300, 1e300, 1e300};
     rc::DepthPyramid pyramid;
     cv::Mat rgb_pinhole;
     for (int r = 0; r < repeat; ++r) {
       const auto t0 = Clock::now();
       const double c0 = CpuMs();
       const cv::Mat undistorted = depth_undistorter.UndistortDepth(depth);
+      const auto t1 = Clock::now();
       rgb_pinhole = rgb_undistorter.UndistortColour(rgb);
+      const auto t2 = Clock::now();
       pyramid = rc::BuildDepthPyramid(undistorted, depth_undistorter.pinhole(), o.depth);
+      const auto t3 = Clock::now();
       // As the pipeline: the colour registered to the finest level ICP iterates on.
       const int level = std::min(o.depth.first_map_level, static_cast<int>(pyramid.levels.size()) - 1);
       rc::SetIntensity(pyramid,
                        rc::RegisterGrey(pyramid.levels[level].depth_m, pyramid.levels[level].camera, rgb_pinhole,
                                         rgb_undistorter.pinhole(), 1 << level, depth_from_rgb_now.Inverse(), threads),
                        level, threads);
+      const auto t4 = Clock::now();
       best_prepare_cpu = std::min(best_prepare_cpu, CpuMs() - c0);
-      best_prepare = std::min(best_prepare, Ms(t0, Clock::now()));
+      best_prepare = std::min(best_prepare, Ms(t0, t4));
+      const double part[4] = {Ms(t0, t1), Ms(t1, t2), Ms(t2, t3), Ms(t3, t4)};
+      for (int k = 0; k < 4; ++k) best_part[k] = std::min(best_part[k], part[k]);
     }
     prepare_ms.push_back(best_prepare);
     prepare_cpu.push_back(best_prepare_cpu);
+    for (int k = 0; k < 4; ++k) prepare_part_ms[k].push_back(best_part[k]);
 
     if (model) {
       double best_track = 1e300, best_track_cpu = 1e300;
@@ -172,6 +181,10 @@ int Run(int argc, char** argv) {
     previous_pose = *pose;
   }
   Summary("prepare ms", prepare_ms);
+  Summary(" undistort depth", prepare_part_ms[0]);
+  Summary(" undistort colour", prepare_part_ms[1]);
+  Summary(" depth pyramid", prepare_part_ms[2]);
+  Summary(" register colour", prepare_part_ms[3]);
   Summary("track ms", track_ms);
   Summary("prep cpu", prepare_cpu);
   Summary("track cpu", track_cpu);

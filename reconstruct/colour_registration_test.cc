@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
@@ -53,6 +55,55 @@ TEST(RegisterGrey, RollingShutterRowsAreProjectedWithThePoseOfTheirExposure) {
                                       rgb_from_depth_at)),
             0);
   EXPECT_GT(wrong_pixels(RegisterGrey(depth, camera, rgb, camera, 1, rgb_from_depth_at(0), 1)), 100);
+}
+
+// Registration runs eight pixels at a time with the row's end per pixel: a pixel's grey
+// level must not depend on where it falls. The same depth image registered with 3 columns
+// more on its left (the principal point moved with them, so every pixel has the same ray)
+// must give the same grey levels bit for bit, on an odd width (157: both paths at every
+// column), with holes, NaN and inf depths, samples beyond the colour image, a rolling shutter
+// turning fast enough that rows of pixels straddle bands, at levels n = 1 and 2.
+TEST(RegisterGrey, APixelsGreyDoesNotDependOnWhereItFallsInARow) {
+  const int width = 157, height = 41, shift = 3;
+  cv::Mat wide(height, width + shift, CV_32FC1);
+  cv::RNG rng(7);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < wide.cols; ++u) {
+      const float r = static_cast<float>(rng.uniform(0.0, 1.0));
+      wide.at<float>(v, u) = r < 0.05f ? 0.0f : r < 0.07f ? NAN : r < 0.09f ? INFINITY : 0.8f + 0.01f * u + 0.4f * r;
+    }
+  }
+  cv::Mat rgb(100, 140, CV_8UC3);
+  rng.fill(rgb, cv::RNG::UNIFORM, 0, 256);
+  const PinholeCamera rgb_camera{140, 100, 95.0f, 95.0f, 69.5f, 49.5f};
+  const double readout_s = 0.03;
+  // Turning at 6 rad/s about the vertical axis: 0.18 rad during the readout, the bands'
+  // poses 0.3 px apart at the image's centre.
+  const auto rgb_from_depth_at = [](double delta_s) {
+    return core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.02 + 6.0 * delta_s, Eigen::Vector3d::UnitY())),
+                         Eigen::Vector3d(-0.03, 0.01, 0));
+  };
+  for (const int n : {1, 2}) {
+    const PinholeCamera left{width, height, 110.0f, 110.0f, 70.5f, 20.5f};
+    PinholeCamera shifted = left;
+    shifted.width += shift;
+    shifted.cx += shift;
+    const cv::Mat a = wide(cv::Rect(shift, 0, width, height)).clone();
+    const cv::Mat ga = RegisterGrey(a, left, rgb, rgb_camera, n, rgb_from_depth_at(0), 1, readout_s, rgb_from_depth_at);
+    const cv::Mat gb =
+        RegisterGrey(wide, shifted, rgb, rgb_camera, n, rgb_from_depth_at(0), 1, readout_s, rgb_from_depth_at);
+    int grey = 0, none = 0;
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const float value = ga.at<float>(v, u);
+        ASSERT_EQ(value, gb.at<float>(v, u + shift)) << "n " << n << " pixel " << u << ", " << v;
+        (value > 0 ? grey : none)++;
+      }
+    }
+    // Most pixels registered, and holes and pixels off the colour image left at 0.
+    EXPECT_GT(grey, width * height / 2);
+    EXPECT_GT(none, width * height / 20);
+  }
 }
 
 // A slanted wall (z = 1.5 m + 0.25 x) seen by a 160×120 depth camera, the colour camera

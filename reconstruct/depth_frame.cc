@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "reconstruct/float8.h"
 #include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
@@ -37,28 +38,23 @@ inline float RangeWeight(float t_sq) {
   return a * a;
 }
 
-// Eight floats at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
-// register in the AVX2 and AVX-512 clones of AddPairs): the bilateral's inner loop, which
-// -O2 does not vectorise by itself. The helpers are inlined into the clones: GCC's warning
-// about passing 32-byte vectors without AVX (an ABI between translation units, reported at
-// the end of the file) does not apply to them.
-#pragma GCC diagnostic ignored "-Wpsabi"
-using Float8 = float __attribute__((vector_size(32)));
-using Int8 = std::int32_t __attribute__((vector_size(32)));
-inline Float8 Load(const float* p) {
-  Float8 v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
-}
-inline void Store(float* p, Float8 v) { std::memcpy(p, &v, sizeof(v)); }
-inline Float8 Splat(float f) { return Float8{f, f, f, f, f, f, f, f}; }
-// `v` where mask is all ones, else +0.
-inline Float8 Masked(Float8 v, Int8 mask) {
-  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & mask);
-}
+// Eight floats at a time (reconstruct/float8.h): the per-pixel loops below, which -O2 does
+// not vectorise by itself, cloned for AVX2 and AVX-512.
+using internal::Abs8;
+using internal::Float8;
+using internal::Int8;
+using internal::Load8;
+using internal::LoadTriples8;
+using internal::Masked8;
+using internal::Select8;
+using internal::Splat8;
+using internal::Sqrt8;
+using internal::Store8;
+using internal::StoreTriples8;
+
 // RangeWeight, with t² clamped to the cutoff so that masked-off lanes stay finite.
 inline Float8 RangeWeight8(Float8 t_sq) {
-  const Float8 cutoff = Splat(kRangeCutoffSq);
+  const Float8 cutoff = Splat8(kRangeCutoffSq);
   const Float8 clamped = t_sq < cutoff ? t_sq : cutoff;
   Float8 a = 1.0f - clamped * (1.0f / 32.0f);
   a *= a;
@@ -75,19 +71,19 @@ inline Float8 RangeWeight8(Float8 t_sq) {
 __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void AddPairs(
     const float* c, const float* a, const float* b, const float* inv_sigma, float weight,
     int x_begin, int x_end, float* sum_w, float* sum_wz) {
-  const Float8 weight8 = Splat(weight);
+  const Float8 weight8 = Splat8(weight);
   int x = x_begin;
   for (; x + 8 <= x_end; x += 8) {
-    const Float8 z = Load(c + x), za = Load(a + x), zb = Load(b + x);
-    const Float8 inv = Load(inv_sigma + x);
+    const Float8 z = Load8(c + x), za = Load8(a + x), zb = Load8(b + x);
+    const Float8 inv = Load8(inv_sigma + x);
     const Float8 ta = (za - z) * inv, tb = (zb - z) * inv;
     const Float8 ta_sq = ta * ta, tb_sq = tb * tb;
     // Both valid and on this side of any edge, or neither counts.
     const Int8 pair = (za > 0) & (zb > 0) & (ta_sq < kRangeCutoffSq) & (tb_sq < kRangeCutoffSq);
-    const Float8 wa = Masked(weight8 * RangeWeight8(ta_sq), pair);
-    const Float8 wb = Masked(weight8 * RangeWeight8(tb_sq), pair);
-    Store(sum_w + x, Load(sum_w + x) + wa + wb);
-    Store(sum_wz + x, Load(sum_wz + x) + wa * za + wb * zb);
+    const Float8 wa = Masked8(weight8 * RangeWeight8(ta_sq), pair);
+    const Float8 wb = Masked8(weight8 * RangeWeight8(tb_sq), pair);
+    Store8(sum_w + x, Load8(sum_w + x) + wa + wb);
+    Store8(sum_wz + x, Load8(sum_wz + x) + wa * za + wb * zb);
   }
   for (; x < x_end; ++x) {
     const float z = c[x], za = a[x], zb = b[x];
@@ -100,6 +96,80 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void AddPair
   }
 }
 
+// dst[x] = src[x] where it lies in [min_m, max_m] and is > 0, else 0 (NaN fails the
+// comparisons), eight at a time; the same result in every clone.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void RangeLimitedRow(
+    const float* src, int w, float min_m, float max_m, float* dst) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const Float8 z = Load8(src + x);
+    Store8(dst + x, Masked8(z, (z >= min_m) & (z <= max_m) & (z > 0)));
+  }
+  for (; x < w; ++x) {
+    const float z = src[x];
+    dst[x] = (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;
+  }
+}
+
+// One row of the flying-pixel test: dst[x] = row[x], or 0 where a valid 4-neighbour
+// (row[x ± 1], up[x], down[x]; 0 is missing, as beyond the border) lies more than
+// fraction · row[x] away. Rows range-limited (≥ 0). Eight at a time inside the row, the
+// ends scalar: the same comparisons, so the same result in every clone.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void EdgeCleanedRow(
+    const float* up, const float* row, const float* down, int w, float fraction, float* dst) {
+  const auto scalar = [&](int x) {
+    const float z = row[x];
+    const float limit = fraction * z;
+    auto jumps = [&](float n) { return n > 0 && std::abs(n - z) > limit; };
+    const bool jump = (x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) ||
+                      jumps(up[x]) || jumps(down[x]);
+    dst[x] = z > 0 && jump ? 0.0f : z;
+  };
+  if (w == 0) return;
+  scalar(0);
+  int x = 1;
+  for (; x + 9 <= w; x += 8) {
+    const Float8 z = Load8(row + x);
+    const Float8 limit = fraction * z;
+    auto jumps = [&](Float8 n) { return (n > 0) & (Abs8(n - z) > limit); };
+    const Int8 jump = jumps(Load8(row + x - 1)) | jumps(Load8(row + x + 1)) | jumps(Load8(up + x)) |
+                      jumps(Load8(down + x));
+    // z == 0 stays 0 either way.
+    Store8(dst + x, Masked8(z, ~jump));
+  }
+  for (; x < w; ++x) scalar(x);
+}
+
+// A bilateral row's start: the inverse range sigma of each centre (0 where it is missing)
+// and the centre's own weight (spatial and range weights 1). Eight at a time; the same
+// operations in every clone.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void BilateralRowStart(
+    const float* c, int w, float sigma_depth, float* inv_sigma, float* sum_w, float* sum_wz) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const Float8 z = Load8(c + x);
+    Store8(inv_sigma + x, Masked8(1.0f / (sigma_depth * z * z), z > 0));
+    Store8(sum_w + x, Splat8(1.0f));
+    Store8(sum_wz + x, z);
+  }
+  for (; x < w; ++x) {
+    const float z = c[x];
+    inv_sigma[x] = z > 0 ? 1.0f / (sigma_depth * z * z) : 0.0f;
+    sum_w[x] = 1;
+    sum_wz[x] = z;
+  }
+}
+
+// A bilateral row's end: the weighted mean where the centre is valid, else 0.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void BilateralRowEnd(
+    const float* c, const float* sum_w, const float* sum_wz, int w, float* dst) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    Store8(dst + x, Masked8(Load8(sum_wz + x) / Load8(sum_w + x), Load8(c + x) > 0));
+  }
+  for (; x < w; ++x) dst[x] = c[x] > 0 ? sum_wz[x] / sum_w[x] : 0.0f;
+}
+
 // Range limits and flying pixels in one pass over the image: depths outside [min, max] (and
 // NaN, inf, negatives) become 0, and so does a valid pixel with a valid (range-limited)
 // 4-neighbour more than `fraction` of its depth away (fraction >= 1: none is dropped).
@@ -108,9 +178,6 @@ cv::Mat RangeLimitedAndEdgeCleaned(const cv::Mat& depth_m, float min_m, float ma
   cv::Mat out(depth_m.size(), CV_32FC1);
   const int w = depth_m.cols, h = depth_m.rows;
   const bool clean = fraction < 1;
-  auto limited = [min_m, max_m](float z) {
-    return (z >= min_m && z <= max_m && z > 0) ? z : 0.0f;  // NaN fails the comparisons
-  };
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     std::vector<float> rows[3];  // range-limited rows y - 1, y, y + 1 (0 beyond the image)
     for (auto& r : rows) r.assign(size_t(w), 0.0f);
@@ -119,8 +186,7 @@ cv::Mat RangeLimitedAndEdgeCleaned(const cv::Mat& depth_m, float min_m, float ma
         std::fill(dst.begin(), dst.end(), 0.0f);
         return;
       }
-      const float* src = depth_m.ptr<float>(y);
-      for (int x = 0; x < w; ++x) dst[x] = limited(src[x]);
+      RangeLimitedRow(depth_m.ptr<float>(y), w, min_m, max_m, dst.data());
     };
     load(rows[0], y0 - 1);
     load(rows[1], y0);
@@ -130,17 +196,11 @@ cv::Mat RangeLimitedAndEdgeCleaned(const cv::Mat& depth_m, float min_m, float ma
       const float* row = rows[1].data();
       const float* down = rows[2].data();
       float* dst = out.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        const float z = row[x];
-        dst[x] = z;
-        if (z <= 0 || !clean) continue;
-        const float limit = fraction * z;
-        // A missing neighbour (0, or beyond the border) never counts as a jump.
-        auto jumps = [&](float n) { return n > 0 && std::abs(n - z) > limit; };
-        if ((x > 0 && jumps(row[x - 1])) || (x + 1 < w && jumps(row[x + 1])) || jumps(up[x]) ||
-            jumps(down[x])) {
-          dst[x] = 0;
-        }
+      // A missing neighbour (0, or beyond the border) never counts as a jump.
+      if (clean) {
+        EdgeCleanedRow(up, row, down, w, fraction, dst);
+      } else {
+        std::copy_n(row, w, dst);
       }
       std::swap(rows[0], rows[1]);
       std::swap(rows[1], rows[2]);
@@ -181,12 +241,7 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
     std::vector<float> sum_w(w), sum_wz(w), inv_sigma(w);
     for (int y = y0; y < y1; ++y) {
       const float* c = depth_m.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        const float z = c[x];
-        inv_sigma[x] = z > 0 ? 1.0f / (sigma_depth * z * z) : 0.0f;
-        sum_w[x] = 1;  // the centre: spatial and range weights 1
-        sum_wz[x] = z;
-      }
+      BilateralRowStart(c, w, sigma_depth, inv_sigma.data(), sum_w.data(), sum_wz.data());
       for (const Offset& o : half) {
         if (y + o.dy >= h || y - o.dy < 0) continue;  // the pair needs both rows
         const float* a = depth_m.ptr<float>(y + o.dy) + o.dx;
@@ -195,8 +250,7 @@ cv::Mat Bilateral(const cv::Mat& depth_m, const DepthFilterOptions& options) {
         AddPairs(c, a, b, inv_sigma.data(), o.weight, reach, w - reach, sum_w.data(),
                  sum_wz.data());
       }
-      float* dst = out.ptr<float>(y);
-      for (int x = 0; x < w; ++x) dst[x] = c[x] > 0 ? sum_wz[x] / sum_w[x] : 0.0f;
+      BilateralRowEnd(c, sum_w.data(), sum_wz.data(), w, out.ptr<float>(y));
     }
   });
   return out;
@@ -241,6 +295,82 @@ cv::Mat HalfDepth(const cv::Mat& depth_m, float sigma_depth_m, int num_threads) 
   return out;
 }
 
+// One row of MapOf's normals (NaN where none), from the row's points and the rows above
+// and below (nullptr beyond the image), all packed float triples with NaN where missing:
+// the cross product of central differences, one-sided where a neighbour is missing or
+// jumps by more than max_jump_fraction of the depth, oriented towards the camera. Eight
+// pixels at a time inside the row when both neighbouring rows exist, the rest per pixel:
+// the same operations either way, so the same result in every clone.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void NormalsRow(
+    const float* up, const float* row, const float* down, int w, float max_jump_fraction, float* normals) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const auto scalar = [&](int x) {
+    const float* p = row + 3 * x;
+    const float z = p[2];
+    normals[3 * x] = normals[3 * x + 1] = normals[3 * x + 2] = nan;  // unless computed below
+    if (std::isnan(z)) return;
+    const float limit = max_jump_fraction * z;
+    // A neighbour is usable when valid (NaN fails the test) and within the jump limit.
+    const float* right = x + 1 < w ? p + 3 : nullptr;
+    const float* left = x > 0 ? p - 3 : nullptr;
+    const float* below = down != nullptr ? down + 3 * x : nullptr;
+    const float* above = up != nullptr ? up + 3 * x : nullptr;
+    if (right != nullptr && !(std::abs(right[2] - z) <= limit)) right = nullptr;
+    if (left != nullptr && !(std::abs(left[2] - z) <= limit)) left = nullptr;
+    if (below != nullptr && !(std::abs(below[2] - z) <= limit)) below = nullptr;
+    if (above != nullptr && !(std::abs(above[2] - z) <= limit)) above = nullptr;
+    // Central differences, one-sided where a side is missing.
+    if (right == nullptr && left == nullptr) return;
+    if (below == nullptr && above == nullptr) return;
+    const float* a = right != nullptr ? right : p;
+    const float* b = left != nullptr ? left : p;
+    const float* c = below != nullptr ? below : p;
+    const float* d = above != nullptr ? above : p;
+    const float ux = a[0] - b[0], uy = a[1] - b[1], uz = a[2] - b[2];
+    const float vx = c[0] - d[0], vy = c[1] - d[1], vz = c[2] - d[2];
+    const float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    const float norm_sq = nx * nx + ny * ny + nz * nz;
+    if (!(norm_sq > 0)) return;
+    // Towards the camera: n · p < 0.
+    const float scale = (nx * p[0] + ny * p[1] + nz * z > 0 ? -1.0f : 1.0f) / std::sqrt(norm_sq);
+    normals[3 * x] = nx * scale;
+    normals[3 * x + 1] = ny * scale;
+    normals[3 * x + 2] = nz * scale;
+  };
+  int x = 0;
+  if (up != nullptr && down != nullptr && w > 0) {
+    scalar(0);
+    for (x = 1; x + 9 <= w; x += 8) {
+      Float8 p[3], right[3], left[3], below[3], above[3];
+      LoadTriples8(row + 3 * x, p);
+      LoadTriples8(row + 3 * (x + 1), right);
+      LoadTriples8(row + 3 * (x - 1), left);
+      LoadTriples8(down + 3 * x, below);
+      LoadTriples8(up + 3 * x, above);
+      const Float8 z = p[2];
+      const Float8 limit = max_jump_fraction * z;
+      // Usable neighbours (a NaN depth, own or the neighbour's, fails the test).
+      const Int8 has_right = Abs8(right[2] - z) <= limit, has_left = Abs8(left[2] - z) <= limit;
+      const Int8 has_below = Abs8(below[2] - z) <= limit, has_above = Abs8(above[2] - z) <= limit;
+      Float8 u[3], v[3];
+      for (int k = 0; k < 3; ++k) {
+        u[k] = Select8(has_right, right[k], p[k]) - Select8(has_left, left[k], p[k]);
+        v[k] = Select8(has_below, below[k], p[k]) - Select8(has_above, above[k], p[k]);
+      }
+      const Float8 nx = u[1] * v[2] - u[2] * v[1], ny = u[2] * v[0] - u[0] * v[2],
+                   nz = u[0] * v[1] - u[1] * v[0];
+      const Float8 norm_sq = nx * nx + ny * ny + nz * nz;
+      const Int8 ok = (z == z) & (has_right | has_left) & (has_below | has_above) & (norm_sq > 0);
+      const Float8 sign = Select8(nx * p[0] + ny * p[1] + nz * z > 0, Splat8(-1.0f), Splat8(1.0f));
+      const Float8 scale = sign / Sqrt8(norm_sq);
+      const Float8 n[3] = {Select8(ok, nx * scale, Splat8(nan)), Select8(ok, ny * scale, Splat8(nan)),
+                           Select8(ok, nz * scale, Splat8(nan))};
+      StoreTriples8(n, normals + 3 * x);
+    }
+  }
+  for (; x < w; ++x) scalar(x);
+}
+
 // Points by unprojection, normals from the cross product of central differences (one-sided
 // where a neighbour is missing or jumps), oriented towards the camera.
 PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_jump_fraction,
@@ -269,47 +399,12 @@ PointMap MapOf(const cv::Mat& depth_m, const PinholeCamera& camera, float max_ju
   });
   // Normals read the neighbouring rows' points: a second pass after all points exist.
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   ForEachBand(h, num_threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
-      const float* row = map.points[map.Index(0, y)].data();
       const float* up = y > 0 ? map.points[map.Index(0, y - 1)].data() : nullptr;
       const float* down = y + 1 < h ? map.points[map.Index(0, y + 1)].data() : nullptr;
-      float* normals = map.normals[map.Index(0, y)].data();
-      for (int x = 0; x < w; ++x) {
-        const float* p = row + 3 * x;
-        const float z = p[2];
-        normals[3 * x] = normals[3 * x + 1] = normals[3 * x + 2] = nan;  // unless computed below
-        if (std::isnan(z)) continue;
-        const float limit = max_jump_fraction * z;
-        // A neighbour is usable when valid (NaN fails the test) and within the jump limit.
-        const float* right = x + 1 < w ? p + 3 : nullptr;
-        const float* left = x > 0 ? p - 3 : nullptr;
-        const float* below = down != nullptr ? down + 3 * x : nullptr;
-        const float* above = up != nullptr ? up + 3 * x : nullptr;
-        if (right != nullptr && !(std::abs(right[2] - z) <= limit)) right = nullptr;
-        if (left != nullptr && !(std::abs(left[2] - z) <= limit)) left = nullptr;
-        if (below != nullptr && !(std::abs(below[2] - z) <= limit)) below = nullptr;
-        if (above != nullptr && !(std::abs(above[2] - z) <= limit)) above = nullptr;
-        // Central differences, one-sided where a side is missing.
-        if (right == nullptr && left == nullptr) continue;
-        if (below == nullptr && above == nullptr) continue;
-        const float* a = right != nullptr ? right : p;
-        const float* b = left != nullptr ? left : p;
-        const float* c = below != nullptr ? below : p;
-        const float* d = above != nullptr ? above : p;
-        const float ux = a[0] - b[0], uy = a[1] - b[1], uz = a[2] - b[2];
-        const float vx = c[0] - d[0], vy = c[1] - d[1], vz = c[2] - d[2];
-        float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
-        const float norm_sq = nx * nx + ny * ny + nz * nz;
-        if (!(norm_sq > 0)) continue;
-        // Towards the camera: n · p < 0.
-        const float scale =
-            (nx * p[0] + ny * p[1] + nz * z > 0 ? -1.0f : 1.0f) / std::sqrt(norm_sq);
-        normals[3 * x] = nx * scale;
-        normals[3 * x + 1] = ny * scale;
-        normals[3 * x + 2] = nz * scale;
-      }
+      NormalsRow(up, map.points[map.Index(0, y)].data(), down, w, max_jump_fraction,
+                 map.normals[map.Index(0, y)].data());
     }
   });
   return map;

@@ -206,6 +206,52 @@ TEST(BuildDepthPyramid, RangeLimitsAndFlyingPixels) {
   EXPECT_EQ(raw.at<float>(10, 11), 1.0f);
 }
 
+// The range limits and the flying-pixel test, vectorised eight pixels at a time with
+// scalar row ends, against their per-pixel definition on an odd width (every pixel position
+// in and out of a vector) with every kind of depth: in range, too near or far, zero,
+// negative, NaN, ±inf, and neighbours on both sides of the jump limit.
+TEST(BuildDepthPyramid, CleaningMatchesThePerPixelDefinition) {
+  const PinholeCamera camera = PinholeCamera::Of(core::CameraModel::Pinhole(157, 23, 140, 140));
+  DepthFilterOptions options;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1);
+  const float specials[] = {0.0f, -1.0f, NAN, INFINITY, -INFINITY, 0.1f, 9.0f};
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float r = uniform(rng);
+      // Mostly 2 m ± 8 %: neighbours fall on both sides of the 5 % limit.
+      depth.at<float>(v, u) = r < 0.15f ? specials[int(uniform(rng) * 7) % 7] : 2.0f * (0.92f + 0.16f * uniform(rng));
+    }
+  }
+  const float min_m = float(options.min_depth_m), max_m = float(options.max_depth_m);
+  const float fraction = float(options.edge_jump_fraction);
+  auto limited = [&](int v, int u) {
+    if (v < 0 || v >= depth.rows || u < 0 || u >= depth.cols) return 0.0f;
+    const float z = depth.at<float>(v, u);
+    return z >= min_m && z <= max_m && z > 0 ? z : 0.0f;
+  };
+  const cv::Mat raw = BuildDepthPyramid(depth, camera, options).raw_depth_m;
+  int kept = 0, dropped = 0;
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float z = limited(v, u);
+      bool jump = false;
+      for (const auto& [dv, du] : {std::pair{0, -1}, {0, 1}, {-1, 0}, {1, 0}}) {
+        const float n = limited(v + dv, u + du);
+        jump = jump || (n > 0 && std::abs(n - z) > fraction * z);
+      }
+      const float expected = z > 0 && jump ? 0.0f : z;
+      ASSERT_EQ(raw.at<float>(v, u), expected) << "pixel " << u << ", " << v;
+      kept += expected > 0;
+      dropped += z > 0 && expected == 0;
+    }
+  }
+  // Both outcomes occur often (not a test that cannot fail).
+  EXPECT_GT(kept, depth.total() / 10);
+  EXPECT_GT(dropped, depth.total() / 10);
+}
+
 // A step edge 1.0 m | 1.3 m with 2 mm noise: the 0.3 m step is 10 range sigmas at 1 m, so
 // the filter must not blend the sides. A blend of even one neighbour column (spatial weight
 // >= 0.08 of the window) would move the edge columns' mean by > 5 mm; we allow 1 mm (the
@@ -384,6 +430,62 @@ TEST(BuildDepthPyramid, NormalsAtHolesAndStepsAreOneSided) {
   }
   EXPECT_FALSE(IsValid(map.points[map.Index(40, 60)]));
   EXPECT_FALSE(IsValid(map.normals[map.Index(40, 60)]));
+}
+
+// The normals, vectorised eight pixels at a time inside a row, against their per-pixel
+// definition (central differences of the points, one-sided at a missing or jumping
+// neighbour, towards the camera) on an odd width, with holes and jumps both sides of the
+// limit: every normal equal, bit for bit.
+TEST(BuildDepthPyramid, NormalsMatchThePerPixelDefinition) {
+  const PinholeCamera camera = PinholeCamera::Of(core::CameraModel::Pinhole(157, 23, 140, 140));
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+  cv::Mat depth = PlaneDepth(camera, {0.1f, 0.05f, 0.5f});
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      const float r = uniform(rng);
+      float& z = depth.at<float>(v, u);
+      z = r < 0.1f ? 0.0f : z * (1.0f + 0.12f * (uniform(rng) - 0.5f));  // ±6 %: limit 5 %
+    }
+  }
+  DepthFilterOptions options;
+  options.num_levels = 1;
+  options.bilateral_radius_px = 0;
+  options.edge_jump_fraction = 1;  // the pyramid keeps every valid depth
+  const PointMap map = BuildDepthPyramid(depth, camera, options).levels[0].map;
+  const float limit_fraction = float(options.normal_max_jump_fraction);
+  auto point = [&](int u, int v) -> const Eigen::Vector3f* {
+    if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) return nullptr;
+    return &map.points[map.Index(u, v)];
+  };
+  int valid = 0, one_sided = 0;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const Eigen::Vector3f& p = *point(u, v);
+      const Eigen::Vector3f& n = map.normals[map.Index(u, v)];
+      auto usable = [&](const Eigen::Vector3f* q) {
+        return q != nullptr && std::abs((*q).z() - p.z()) <= limit_fraction * p.z() ? q : nullptr;
+      };
+      const Eigen::Vector3f *right = usable(point(u + 1, v)), *left = usable(point(u - 1, v));
+      const Eigen::Vector3f *below = usable(point(u, v + 1)), *above = usable(point(u, v - 1));
+      if (!IsValid(p) || (!right && !left) || (!below && !above)) {
+        ASSERT_FALSE(IsValid(n)) << u << " " << v;
+        continue;
+      }
+      const Eigen::Vector3f du = (right ? *right : p) - (left ? *left : p);
+      const Eigen::Vector3f dv = (below ? *below : p) - (above ? *above : p);
+      const float nx = du.y() * dv.z() - du.z() * dv.y(), ny = du.z() * dv.x() - du.x() * dv.z(),
+                  nz = du.x() * dv.y() - du.y() * dv.x();
+      const float scale =
+          (nx * p.x() + ny * p.y() + nz * p.z() > 0 ? -1.0f : 1.0f) / std::sqrt(nx * nx + ny * ny + nz * nz);
+      ASSERT_TRUE(IsValid(n)) << u << " " << v;
+      ASSERT_EQ(n, Eigen::Vector3f(nx * scale, ny * scale, nz * scale)) << u << " " << v;
+      ++valid;
+      one_sided += !right || !left || !below || !above;
+    }
+  }
+  EXPECT_GT(valid, camera.width * camera.height / 2);
+  EXPECT_GT(one_sided, camera.width * camera.height / 10);
 }
 
 TEST(BuildDepthPyramid, ThreadCountDoesNotChangeTheResult) {

@@ -14,7 +14,6 @@
 #include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
-
 std::string DynamicMaskOptions::Check() const {
   if (!(margin_m >= 0) || !std::isfinite(margin_m)) return internal::Fail("margin_m", margin_m, ">= 0 m");
   if (!(margin_fraction >= 0 && margin_fraction < 1)) {
@@ -57,8 +56,8 @@ int MaskInFrontOfModel(cv::Mat& depth_m, const PinholeCamera& camera, const core
         const Eigen::Vector3f p = rotation * camera.Unproject(static_cast<float>(x), static_cast<float>(y), z) + translation;
         if (p.z() <= 1e-3f) continue;
         const Eigen::Vector2f uv = model_camera.Project(p);
-        const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
-        if (u < 0 || v < 0 || u >= model.width || v >= model.height) continue;
+        int u, v;
+        if (!internal::RoundedIndex(uv.x(), 0, model.width, u) || !internal::RoundedIndex(uv.y(), 0, model.height, v)) continue;
         // The nearest model surface over the 3×3 model pixels around: a point on an object's
         // rim that projects a pixel off onto the background behind it is not in front of the
         // object, and masking rims would erode every silhouette a little more each frame (the
@@ -115,8 +114,10 @@ std::vector<Eigen::Vector3f> ModelSeenThrough(const cv::Mat& depth_m, const Pinh
         const Eigen::Vector3f p = rotation * point + translation;
         if (p.z() <= 1e-3f) continue;
         const Eigen::Vector2f xy = camera.Project(p);
-        const int x = static_cast<int>(std::lround(xy.x())), y = static_cast<int>(std::lround(xy.y()));
-        if (x < 1 || y < 1 || x >= camera.width - 1 || y >= camera.height - 1) continue;
+        int x, y;
+        if (!internal::RoundedIndex(xy.x(), 1, camera.width - 1, x) || !internal::RoundedIndex(xy.y(), 1, camera.height - 1, y)) {
+          continue;
+        }
         bool through = true;
         for (int dy = -1; dy <= 1 && through; ++dy) {
           const float* row = depth_m.ptr<float>(y + dy);

@@ -1,6 +1,8 @@
 #include "reconstruct/dynamic_mask.h"
 
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -136,6 +138,32 @@ TEST(DynamicMask, ModelConflictIsZeroAtTheTruePoseAndLargeAtAWrongOne) {
   EXPECT_EQ(unchecked.in_front + unchecked.seen_through, 0);
   EXPECT_EQ(unchecked.depth_pixels, 64 * 48);
   EXPECT_EQ(unchecked.Fraction(), 0.0);
+}
+
+// The mask's rounding to a pixel index against std::lround, at the halves, just either side
+// of them (one float step), across both ends of the range, and on non-finite values.
+TEST(DynamicMask, RoundedIndexIsLroundInRange) {
+  std::vector<float> xs = {NAN, INFINITY, -INFINITY, 1e30f, -1e30f};
+  for (int k = -3; k <= 643; ++k) {
+    for (const float half : {-0.5f, 0.0f, 0.5f}) {
+      const float x = static_cast<float>(k) + half;
+      xs.insert(xs.end(), {x, std::nextafter(x, -INFINITY), std::nextafter(x, INFINITY)});
+    }
+  }
+  int inside = 0;
+  for (const auto& [lo, hi] : {std::pair{0, 640}, {1, 639}, {0, 1}}) {
+    for (const float x : xs) {
+      int index = -7;
+      const bool in = internal::RoundedIndex(x, lo, hi, index);
+      const bool expected = std::isfinite(x) && std::abs(x) < 1e9f && std::lround(x) >= lo && std::lround(x) < hi;
+      ASSERT_EQ(in, expected) << x << " in [" << lo << ", " << hi << ")";
+      if (in) {
+        ASSERT_EQ(index, std::lround(x)) << x;
+        ++inside;
+      }
+    }
+  }
+  EXPECT_GT(inside, 5000);
 }
 
 TEST(DynamicMask, OptionsCheckNamesTheField) {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "reconstruct/float8.h"
 #include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
@@ -95,48 +96,38 @@ struct Pass {
   float photometric_offset = 0;  // grey levels subtracted from model − live
 };
 
-// Eight pixels at a time (GCC/Clang vector extensions: two SSE halves by default, one AVX
-// register in the AVX2 and AVX-512 clones below). The helpers are inlined into the clones:
-// the warning about passing 32-byte vectors without AVX (an ABI between translation units)
-// does not apply to them (GCC reports it at the end of the file: not popped).
-#pragma GCC diagnostic ignored "-Wpsabi"
-using Float8 = float __attribute__((vector_size(32)));
-using Int8 = std::int32_t __attribute__((vector_size(32)));
+// Eight pixels at a time (reconstruct/float8.h; AccumulateRows is cloned for AVX2 and
+// AVX-512).
+using internal::Abs8;
+using internal::Float8;
+using internal::Floor8;
+using internal::Gather8;
+using internal::Int8;
+using internal::LoadTriples8;
+using internal::Masked8;
+using internal::Max8;
+using internal::Select8;
+using internal::Splat8;
 
-inline Float8 Splat8(float f) { return Float8{f, f, f, f, f, f, f, f}; }
-// `v` where mask is all ones, else +0 (also where v is NaN).
-inline Float8 Masked8(Float8 v, Int8 mask) {
-  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & mask);
-}
-inline Float8 Select8(Int8 mask, Float8 a, Float8 b) {
-  return reinterpret_cast<Float8>((reinterpret_cast<Int8>(a) & mask) |
-                                  (reinterpret_cast<Int8>(b) & ~mask));
-}
-inline Float8 Abs8(Float8 v) {
-  return reinterpret_cast<Float8>(reinterpret_cast<Int8>(v) & (Int8{} + 0x7fffffff));
-}
-// Lanes are floor(v) for |v| < 2³¹ (conversion truncates towards zero).
-inline Int8 Floor8(Float8 v) {
-  const Int8 t = __builtin_convertvector(v, Int8);
-  return t + (__builtin_convertvector(t, Float8) > v);  // a true comparison is -1
-}
 inline Float8 HuberWeight8(Float8 r, Float8 k) {
   const Float8 abs_r = Abs8(r);
   return Select8(abs_r <= k, Splat8(1.0f), k / abs_r);
 }
-inline Float8 Max8(Float8 a, Float8 b) { return a > b ? a : b; }
-
 // The 6×6 system's sums for one row, eight lanes each: Σ w J_a J_b (upper triangle, a ≤ b,
 // row-major, 21) then Σ w J_a r (6).
 struct RowSums8 {
   Float8 s[27] = {};
   // Adds the terms (J, r) with weights w (0 in lanes that are not terms; J and r finite there).
   void Add(const Float8 (&j)[6], Float8 r, Float8 w) {
+    // Unrolled (-O2 keeps the loops otherwise: an address computation per term).
     int k = 0;
+#pragma GCC unroll 6
     for (int a = 0; a < 6; ++a) {
       const Float8 w_ja = w * j[a];
+#pragma GCC unroll 6
       for (int b = a; b < 6; ++b) s[k++] += w_ja * j[b];
     }
+#pragma GCC unroll 6
     for (int a = 0; a < 6; ++a) s[21 + a] += w * j[a] * r;
   }
 };
@@ -190,11 +181,17 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
     for (int x0 = 0; x0 < live.width; x0 += 8) {
       // The lanes' live points and normals (pixels past the row's end: no normal).
       Float8 p[3], n[3];
-      for (int k = 0; k < 8; ++k) {
-        const bool inside = x0 + k < live.width;
-        for (int c = 0; c < 3; ++c) {
-          p[c][k] = inside ? points[3 * (x0 + k) + c] : 0.0f;
-          n[c][k] = inside ? normals[3 * (x0 + k) + c] : nan;
+      const bool whole = x0 + 8 <= live.width;
+      if (whole) {
+        LoadTriples8(points + 3 * x0, p);
+        LoadTriples8(normals + 3 * x0, n);
+      } else {
+        for (int k = 0; k < 8; ++k) {
+          const bool inside = x0 + k < live.width;
+          for (int c = 0; c < 3; ++c) {
+            p[c][k] = inside ? points[3 * (x0 + k) + c] : 0.0f;
+            n[c][k] = inside ? normals[3 * (x0 + k) + c] : nan;
+          }
         }
       }
       const Int8 has_normal = n[0] == n[0];  // not NaN
@@ -227,13 +224,9 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       vi = vi < cam.height - 1 ? vi : cam.height - 1;
       const Int8 j = vi * cam.width + ui;
       Float8 q[3], nm[3];
-      for (int k = 0; k < 8; ++k) {
-        const float* qk = model_points + 3 * size_t(j[k]);
-        const float* nk = model_normals + 3 * size_t(j[k]);
-        for (int c = 0; c < 3; ++c) {
-          q[c][k] = qk[c];
-          nm[c][k] = nk[c];
-        }
+      for (int c = 0; c < 3; ++c) {
+        q[c] = Gather8(model_points + c, 3 * j);
+        nm[c] = Gather8(model_normals + c, 3 * j);
       }
       const Float8 dx = wx - q[0], dy = wy - q[1], dz = wz - q[2];
       // The model normal in the live camera frame, n_c = Rᵀ n_model: the angle gate compares
@@ -275,14 +268,14 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) Sums Accumul
       Int8 in_patch = inlier & (u0 >= 0) & (v0 >= 0) & (u0 + 1 < cam.width) &
                       (v0 + 1 < cam.height);
       const Int8 g = (v0 & in_patch) * cam.width + (u0 & in_patch);
-      Float8 i00, i10, i01, i11, live_i;
-      for (int k = 0; k < 8; ++k) {
-        const float* g0 = model_intensity + size_t(g[k]);
-        i00[k] = g0[0];
-        i10[k] = g0[1];
-        i01[k] = g0[cam.width];
-        i11[k] = g0[cam.width + 1];
-        live_i[k] = x0 + k < live.width ? live_intensity[row + x0 + k] : nan;
+      const Float8 i00 = Gather8(model_intensity, g), i10 = Gather8(model_intensity + 1, g);
+      const Float8 i01 = Gather8(model_intensity + cam.width, g);
+      const Float8 i11 = Gather8(model_intensity + cam.width + 1, g);
+      Float8 live_i;
+      if (whole) {
+        std::memcpy(&live_i, live_intensity + row + x0, sizeof(Float8));
+      } else {
+        for (int k = 0; k < 8; ++k) live_i[k] = x0 + k < live.width ? live_intensity[row + x0 + k] : nan;
       }
       const Float8 sum_i = i00 + i10 + i01 + i11 + live_i;
       in_patch &= sum_i == sum_i;  // none NaN
