@@ -40,11 +40,39 @@ int MaskInFrontOfModel(cv::Mat& depth_m, const PinholeCamera& camera, const core
   const float margin_m = static_cast<float>(options.margin_m);
   const float margin_fraction = static_cast<float>(options.margin_fraction);
   // The model's depth along its own camera axis per pixel, NaN without a surface.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<float> model_z(model.points.size());
-  for (size_t i = 0; i < model.points.size(); ++i) {
-    model_z[i] = IsValid(model.points[i]) ? (model_rotation * model.points[i] + model_translation).z()
-                                          : std::numeric_limits<float>::quiet_NaN();
-  }
+  ForEachBand(model.height, num_threads, [&](int begin, int end) {
+    for (size_t i = model.Index(0, begin); i < model.Index(0, end); ++i) {
+      model_z[i] = IsValid(model.points[i]) ? (model_rotation * model.points[i] + model_translation).z() : nan;
+    }
+  });
+  // The nearest model surface over the 3×3 model pixels around each: a point on an object's
+  // rim that projects a pixel off onto the background behind it is not in front of the
+  // object, and masking rims would erode every silhouette a little more each frame (the rim
+  // never integrated, the model's silhouette shrinking). A neighbour without a surface
+  // (unseen, or the image border) keeps the point: nothing says it moved in (NaN). Once per
+  // model pixel, not per depth pixel (four of them per model pixel at the default level).
+  std::vector<float> nearest(model.points.size(), nan);
+  ForEachBand(model.height, num_threads, [&](int begin, int end) {
+    for (int v = std::max(begin, 1); v < std::min(end, model.height - 1); ++v) {
+      for (int u = 1; u + 1 < model.width; ++u) {
+        float nearest_z = std::numeric_limits<float>::infinity();
+        bool all_seen = true;
+        for (int dv = -1; dv <= 1 && all_seen; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const float mz = model_z[model.Index(u + du, v + dv)];
+            if (!(mz > 0)) {
+              all_seen = false;
+              break;
+            }
+            nearest_z = std::min(nearest_z, mz);
+          }
+        }
+        if (all_seen) nearest[model.Index(u, v)] = nearest_z;
+      }
+    }
+  });
   std::atomic<int> masked{0};
   ForEachBand(depth_m.rows, num_threads, [&](int begin, int end) {
     int count = 0;
@@ -57,31 +85,12 @@ int MaskInFrontOfModel(cv::Mat& depth_m, const PinholeCamera& camera, const core
         if (p.z() <= 1e-3f) continue;
         const Eigen::Vector2f uv = model_camera.Project(p);
         int u, v;
-        if (!internal::RoundedIndex(uv.x(), 0, model.width, u) || !internal::RoundedIndex(uv.y(), 0, model.height, v)) continue;
-        // The nearest model surface over the 3×3 model pixels around: a point on an object's
-        // rim that projects a pixel off onto the background behind it is not in front of the
-        // object, and masking rims would erode every silhouette a little more each frame (the
-        // rim never integrated, the model's silhouette shrinking). A neighbour without a
-        // surface (unseen, or the image border) keeps the point: nothing says it moved in.
-        float nearest_z = std::numeric_limits<float>::infinity();
-        bool all_seen = true;
-        for (int dv = -1; dv <= 1 && all_seen; ++dv) {
-          for (int du = -1; du <= 1; ++du) {
-            const int uu = u + du, vv = v + dv;
-            if (uu < 0 || vv < 0 || uu >= model.width || vv >= model.height) {
-              all_seen = false;
-              break;
-            }
-            const float mz = model_z[model.Index(uu, vv)];
-            if (!(mz > 0)) {
-              all_seen = false;
-              break;
-            }
-            nearest_z = std::min(nearest_z, mz);
-          }
+        if (!internal::RoundedIndex(uv.x(), 0, model.width, u) || !internal::RoundedIndex(uv.y(), 0, model.height, v)) {
+          continue;
         }
+        const float nearest_z = nearest[model.Index(u, v)];  // NaN fails the test below
         // Both along the model camera's axis: the point lies on (nearly) the ray of (u, v).
-        if (all_seen && p.z() < nearest_z - std::max(margin_m, margin_fraction * z)) {
+        if (p.z() < nearest_z - std::max(margin_m, margin_fraction * z)) {
           row[x] = 0;
           ++count;
         }

@@ -205,8 +205,12 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   // whose ray it was calibrated on.
   cv::Mat corrected_depth_m;
   if (!depth_offset_map_.empty()) {
-    corrected_depth_m = frame.depth_m.clone();
-    core::CorrectDepth(depth_offset_map_, &corrected_depth_m);
+    corrected_depth_m.create(frame.depth_m.size(), CV_32FC1);
+    ForEachBand(frame.depth_m.rows, options_.num_threads, [&](int y0, int y1) {  // per pixel: in bands
+      cv::Mat band = corrected_depth_m.rowRange(y0, y1);
+      frame.depth_m.rowRange(y0, y1).copyTo(band);
+      core::CorrectDepth(depth_offset_map_.rowRange(y0, y1), &band);
+    });
   }
   const cv::Mat undistorted = depth_undistorter_.UndistortDepth(
       depth_offset_map_.empty() ? frame.depth_m : corrected_depth_m);

@@ -62,7 +62,7 @@ PoseF ToFloat(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& t) {
 
 // One current point's residual and Jacobian, as internal::PrealignResidual says, in float on
 // the packed image (the one implementation: AccumulatePrealign sums it, the tests check it).
-inline bool PointTerm(const internal::PrealignImages& previous, const PoseF& pose, float X, float Y, float Z,
+[[gnu::always_inline]] inline bool PointTerm(const internal::PrealignImages& previous, const PoseF& pose, float X, float Y, float Z,
                       float grey, float offset, float& residual, float (&jacobian)[4]) {
   const PinholeCamera& pc = previous.camera;
   const float* r = pose.r;
@@ -175,9 +175,11 @@ PrealignSums AccumulatePrealign(const PrealignImages& previous, const Eigen::Mat
         if (!PointTerm(previous, pose, points.x[i], points.y[i], points.z[i], points.grey[i], off, res, j)) continue;
         const float abs_r = std::abs(res);
         const float w = abs_r <= hub ? 1.0f : hub / abs_r;
-        int k = 0;
+        int k = 0;  // unrolled: -O2 keeps these loops otherwise
+#pragma GCC unroll 4
         for (int p = 0; p < 4; ++p) {
           const float wj = w * j[p];
+#pragma GCC unroll 4
           for (int q = p; q < 4; ++q) s.normal[k++] += wj * j[q];
           s.rhs[p] -= wj * res;
         }
