@@ -8,7 +8,8 @@
 // Per frame: "prepare" = undistort depth and colour, build the depth pyramid, register the
 // colour to its finest ICP level; "track" = AlignToModel of that pyramid against the raycast of the frames
 // before it, from the previous frame's true pose. Each runs R times, the fastest counts (a
-// shared machine's load only adds time). Also prints ICP's iterations and the estimate's
+// shared machine's load only adds time); the summary also splits "prepare" into its four
+// parts (fastest of R each). Also prints ICP's iterations and the estimate's
 // error against the truth (mm, deg): a speed change must not change them beyond noise.
 // SCAN needs groundtruth.txt and an rgb stream (e.g. heatwave synth --scene equipment).
 
