@@ -49,10 +49,12 @@ inline bool ProjectPixel(const Registration& g, const float* pose, float px, flo
   return true;
 }
 
-// The band of rows a colour row falls in (clamped as a float: no overflow in the cast).
+// The band of rows a colour row falls in (clamped as a float: no overflow in the cast; 0
+// for a NaN row, whose cast would be undefined: a point whose depth in the colour camera
+// underflows).
 inline int BandOf(const Registration& g, float row) {
-  return static_cast<int>(std::clamp((row + 0.5f) * static_cast<float>(g.num_bands) / g.rows, 0.0f,
-                                     static_cast<float>(g.num_bands - 1)));
+  const float band = (row + 0.5f) * static_cast<float>(g.num_bands) / g.rows;
+  return band == band ? static_cast<int>(std::clamp(band, 0.0f, static_cast<float>(g.num_bands - 1))) : 0;
 }
 
 inline float Luma(const std::uint8_t* p) { return 0.299f * p[0] + 0.587f * p[1] + 0.114f * p[2]; }
@@ -110,8 +112,7 @@ inline bool GreyOfPixel(const Registration& g, float x, float ray_y, float z, fl
   v = g.fy * y * inv_z + g.cy;
 }
 
-// BandOf on eight lanes; 0 where not ok and where the row is NaN (a point whose depth in the
-// colour camera underflows: GreyOfPixel's cast would be undefined there).
+// BandOf on eight lanes; 0 where not ok and where the row is NaN, as there.
 [[gnu::always_inline]] inline Int8 BandsOf(const Registration& g, Float8 row, Int8 ok) {
   Float8 b = (row + 0.5f) * static_cast<float>(g.num_bands) / g.rows;
   b = b < 0.0f ? internal::Splat8(0.0f) : b;
