@@ -1,6 +1,7 @@
 #include "cli/reconstruct_thermal.h"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -108,6 +109,8 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
     r.frozen += f.status == ThermalFrameStatus::kFrozen;
     r.no_pose += f.status == ThermalFrameStatus::kNoPose;
     r.no_surface += f.status == ThermalFrameStatus::kNoSurface;
+    r.skipped += f.status == ThermalFrameStatus::kSkipped;
+    assert(f.status != ThermalFrameStatus::kHeld);  // ReconstructScan flushes
     r.rays += f.rays;
     r.hits += f.hits;
     r.rays_fused += f.fused;
@@ -123,6 +126,7 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
       r.pixel_offset_rms_k = f.pixel_offset_rms_k;
     }
   }
+  r.frame_window = fusion.options().frame_window;
   r.scene_correction = fusion.options().scene_correction.frame_offset || fusion.options().scene_correction.pixel_offset;
   if (r.fused > 0) {
     r.raycast_ms /= r.fused;
@@ -210,6 +214,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
       .Int("max_views_per_region", o.max_views_per_region)
+      .Int("frame_window", o.frame_window)
       .Add("scene_correction", scene.str())
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
@@ -218,6 +223,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Int("frozen", r.frozen)
       .Int("no_pose", r.no_pose)
       .Int("no_surface", r.no_surface)
+      .Int("skipped", r.skipped)
       .Int("missing", r.missing)
       .Int("after_end", r.after_end)
       .Int("rays", r.rays)
@@ -281,6 +287,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Number("time_since_ffc_s", f.time_since_ffc_s)
         .Number("linear_speed_mps", f.linear_speed_mps)
         .Number("angular_speed_dps", f.angular_speed_dps)
+        .Number("frame_confidence", f.frame_confidence)
         .Int("rays", f.rays)
         .Int("hits", f.hits)
         .Int("fused", f.fused)
@@ -312,6 +319,11 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
       "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f)\n",
       r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
       r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms);
+  if (r.frame_window > 1) {
+    out += core::StringPrintf("           %d skipped: of each %d frames only the most confident (least blurred) is "
+                              "fused (--thermal-frame-window)\n",
+                              r.skipped, r.frame_window);
+  }
   out += core::StringPrintf("           %d vertices with temperature (%s), %zu regions, %.1f MB", r.vertices_observed,
                             r.method.c_str(), r.regions, r.memory_bytes / 1e6);
   if (r.observations_dropped > 0) {

@@ -184,6 +184,9 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
   }
   if (thermal) {
     feeder.Feed(reconstruction, true);
+    const auto flush_start = std::chrono::steady_clock::now();
+    thermal->Flush(reconstruction.volume());  // the last window's frame
+    out.thermal_seconds += internal::MsSince(flush_start) / 1000;
     const auto finish_start = std::chrono::steady_clock::now();
     thermal->Finish();
     out.thermal_finish_seconds = internal::MsSince(finish_start) / 1000;

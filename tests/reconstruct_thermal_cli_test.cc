@@ -143,6 +143,50 @@ TEST(ReconstructThermalCli, SlowDepthStreamStillPosesEveryFrame) {
   EXPECT_NEAR(json["thermal"]["settings"]["max_pose_gap_s"].get<double>(), 0.3, 0.01);
 }
 
+// --thermal-frame-window 3: one frame fused per run of three with a pose (frozen frames do
+// not count), the others skipped, none left held at the end; the model still has temperature
+// where the window of 1 gave it (a 30 Hz sweep's consecutive frames see the same surface).
+TEST(ReconstructThermalCli, FrameWindowFusesOneFrameInEachRunOfThree) {
+  const std::string base = "reconstruct " + ThermalScan().string() + " --poses " +
+                           (ThermalScan() / "groundtruth.txt").string() + " --start-at-groundtruth --voxel-size 0.01";
+  const fs::path every = FreshPath("every"), third = FreshPath("third");
+  const Result r1 = Heatwave(base + " --out " + every.string());
+  ASSERT_EQ(r1.exit_code, 0) << r1.output;
+  const Result r3 = Heatwave(base + " --out " + third.string() + " --thermal-frame-window 3");
+  ASSERT_EQ(r3.exit_code, 0) << r3.output;
+  const nlohmann::json j1 = nlohmann::json::parse(Read(every / "reconstruct.json"))["thermal"];
+  const nlohmann::json j3 = nlohmann::json::parse(Read(third / "reconstruct.json"))["thermal"];
+  EXPECT_EQ(j3["settings"]["frame_window"].get<int>(), 3);
+  const int candidates = j1["summary"]["fused"].get<int>() + j1["summary"]["no_surface"].get<int>();
+  ASSERT_GE(candidates, 9) << j1["summary"].dump();
+  EXPECT_EQ(j1["summary"]["skipped"].get<int>(), 0);
+  const int fused3 = j3["summary"]["fused"].get<int>() + j3["summary"]["no_surface"].get<int>();
+  EXPECT_EQ(fused3, (candidates + 2) / 3) << j3["summary"].dump();
+  EXPECT_EQ(j3["summary"]["skipped"].get<int>(), candidates - fused3) << j3["summary"].dump();
+  EXPECT_EQ(j3["summary"]["frozen"].get<int>(), j1["summary"]["frozen"].get<int>());
+  int skipped = 0;
+  for (const nlohmann::json& f : j3["frames"]) {
+    EXPECT_NE(f["status"].get<std::string>(), "held");
+    if (f["status"].get<std::string>() == "skipped") {
+      ++skipped;
+      EXPECT_EQ(f["rays"].get<int>(), 0);  // never cast
+    }
+    EXPECT_GE(f["frame_confidence"].get<double>(), 0);
+    EXPECT_LE(f["frame_confidence"].get<double>(), 1);
+  }
+  EXPECT_EQ(skipped, candidates - fused3);
+  EXPECT_NE(r3.output.find("skipped"), std::string::npos) << r3.output;
+  auto observed = [](const fs::path& out) {
+    const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
+    int n = 0;
+    for (double v : model.Get("temperature_views").values) n += v > 0;
+    return n;
+  };
+  const int observed1 = observed(every), observed3 = observed(third);
+  EXPECT_GT(observed3, observed1 * 9 / 10) << observed1 << " " << observed3;
+  EXPECT_LE(observed3, observed1);
+}
+
 TEST(ReconstructThermalCli, ScanWithoutThermalFramesWarnsAndWritesNoTemperature) {
   // A rig with a thermal camera whose stream was not recorded.
   const fs::path scan = CopyOfThermalScan("no-thermal-frames");
@@ -204,7 +248,8 @@ TEST(ReconstructThermalCli, BadThermalOptionsAreExit2) {
   const std::string base = "reconstruct " + ThermalScan().string() + " --out " + FreshPath("out").string() + kOptions;
   for (const char* bad : {" --thermal-method median", " --recency-bias 1.5", " --confidence-powers 1,1,1",
                           " --confidence-powers 1,1,-1,1,1", " --emissivity-from-truth",
-                          " --min-ray-confidence 1"}) {
+                          " --min-ray-confidence 1", " --thermal-frame-window 0",
+                          " --thermal-frame-window 31"}) {
     const Result r = Heatwave(base + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
   }
