@@ -18,6 +18,8 @@
 #   gt-no-conf   as gt-poses, every confidence power 0 (C_R = 1: plain rays)
 #   gt-no-edge   as gt-poses, without the silhouette rule (--thermal-edge-radius 0) and the
 #                view cap (--thermal-max-views 0): the fusion as the table's first run had it
+#   NAME-iS      any of the above with --thermal-frame-interval S: only the most confident
+#                thermal frame of each S seconds fused (e.g. rig-i0 every frame, gt-poses-i0.3)
 # All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
 # reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
@@ -45,7 +47,7 @@ while [[ $# -gt 0 ]]; do
     --out) out=$2; shift 2 ;;
     --scans) scans=$2; shift 2 ;;
     --configs) configs=$2; shift 2 ;;
-    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
     *) echo "unknown option: $1" >&2; exit 2 ;;
   esac
 done
@@ -77,7 +79,12 @@ for scan in $scans; do
   fi
   for config in $configs; do
     args=(--start-at-groundtruth --overwrite -q)
-    case $config in
+    base=$config
+    if [[ $config =~ ^(.*)-i([0-9.]+)$ ]]; then
+      base=${BASH_REMATCH[1]}
+      args+=(--thermal-frame-interval "${BASH_REMATCH[2]}")
+    fi
+    case $base in
       no-thermal) args+=(--no-thermal) ;;
       truth) args+=(--emissivity-from-truth --thermal-vignetting 0.05) ;;
       gt-poses) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt") ;;
@@ -85,6 +92,8 @@ for scan in $scans; do
                          --confidence-powers 0,0,0,0,0) ;;
       gt-no-edge) args+=(--emissivity-from-truth --thermal-vignetting 0.05 --poses "$data/$scan/groundtruth.txt"
                          --thermal-edge-radius 0 --thermal-max-views 0) ;;
+      rig) ;;
+      *) echo "unknown config $config" >&2; exit 2 ;;
     esac
     echo "== $scan $config" >&2
     "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"

@@ -704,10 +704,10 @@ int RunReconstruct(int argc, char** argv) {
                  "views per surface region kept for the offline estimate, the most confident ones "
                  "(bounds memory on long scans); 0: all")
       ->capture_default_str();
-  app.add_option("--thermal-frame-window", t.frame_window,
-                 "fuse only the most confident (least blurred, farthest from a shutter event) of each run of "
-                 "this many thermal frames, skipping the others: a 30 Hz camera's consecutive frames are nearly "
-                 "the same view, and each costs a raycast; 1: every frame, [1, 30]")
+  app.add_option("--thermal-frame-interval", t.frame_interval_s,
+                 "fuse only the most confident (least blurred, farthest from a shutter event) thermal frame of "
+                 "each window this long (s), skipping the others: a 30 Hz camera's consecutive frames are "
+                 "nearly the same view, and each costs a raycast; 0: every frame, [0, 1]")
       ->capture_default_str();
   app.add_option("--thermal-vignetting", t.vignetting,
                  "thermal radiance lost at the image corners after the camera's own calibration "

@@ -53,8 +53,8 @@ struct ReconstructCommandOptions {
 struct ThermalCommandResult {
   int frames = 0;  // thermal frames of the scan
   int fused = 0, frozen = 0, no_pose = 0, no_surface = 0, missing = 0, after_end = 0;
-  int skipped = 0;      // a more confident frame of its window fused instead (--thermal-frame-window)
-  int frame_window = 1;
+  int skipped = 0;  // a more confident frame of its window fused instead (--thermal-frame-interval)
+  double frame_interval_s = 0;
   int64_t rays = 0, hits = 0, rays_fused = 0;  // over all frames given to fusion
   int64_t rays_occluded = 0;  // hits behind something the live depth saw nearer
   int occluded_frames = 0;    // frames with such rays

@@ -126,7 +126,7 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
       r.pixel_offset_rms_k = f.pixel_offset_rms_k;
     }
   }
-  r.frame_window = fusion.options().frame_window;
+  r.frame_interval_s = fusion.options().frame_interval_s;
   r.scene_correction = fusion.options().scene_correction.frame_offset || fusion.options().scene_correction.pixel_offset;
   if (r.fused > 0) {
     r.raycast_ms /= r.fused;
@@ -214,7 +214,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("max_pose_gap_s", o.max_pose_gap_s)
       .Bool("keep_observations", o.keep_observations)
       .Int("max_views_per_region", o.max_views_per_region)
-      .Int("frame_window", o.frame_window)
+      .Number("frame_interval_s", o.frame_interval_s)
       .Add("scene_correction", scene.str())
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
@@ -319,10 +319,10 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
       "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f)\n",
       r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
       r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms);
-  if (r.frame_window > 1) {
-    out += core::StringPrintf("           %d skipped: of each %d frames only the most confident (least blurred) is "
-                              "fused (--thermal-frame-window)\n",
-                              r.skipped, r.frame_window);
+  if (r.skipped > 0) {
+    out += core::StringPrintf("           %d skipped: of the frames within %g s only the most confident (least "
+                              "blurred) is fused (--thermal-frame-interval)\n",
+                              r.skipped, r.frame_interval_s);
   }
   out += core::StringPrintf("           %d vertices with temperature (%s), %zu regions, %.1f MB", r.vertices_observed,
                             r.method.c_str(), r.regions, r.memory_bytes / 1e6);

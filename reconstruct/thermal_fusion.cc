@@ -48,7 +48,7 @@ std::string ThermalFusionOptions::Check() const {
     return OptionFail("occlusion_margin_fraction", occlusion_margin_fraction, "in [0, 1)");
   }
   if (max_views_per_region < 0) return OptionFail("max_views_per_region", max_views_per_region, ">= 0");
-  if (!(frame_window >= 1 && frame_window <= 30)) return OptionFail("frame_window", frame_window, "in [1, 30]");
+  if (!InRange(frame_interval_s, 0, 1)) return OptionFail("frame_interval_s", frame_interval_s, "in [0, 1] s");
   if (num_threads < 0) return OptionFail("num_threads", num_threads, ">= 0");
   return "";
 }
@@ -443,23 +443,27 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   record.linear_speed_mps = linear_velocity_mps.norm();
   record.angular_speed_dps = angular_velocity_radps.norm() * 180 / M_PI;
 
+  // A frame past the current window closes it (first, so that this frame's confidence
+  // reads the range of the frame fused now).
+  const double interval_s = m.options.frame_interval_s;
+  if (m.held && !(frame.timestamp_s < m.window_start_s + interval_s)) Flush(volume);
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
   record.frame_confidence = m.FrameConfidence(linear_velocity_mps, angular_velocity_radps, operating);
   Impl::HeldFrame candidate{m.frames.size() - 1, m.previous_image, world_from_thermal, linear_velocity_mps,
                             angular_velocity_radps, operating, std::vector<LiveDepth>(live.begin(), live.end())};
-  if (m.options.frame_window == 1) {
+  if (interval_s == 0) {
     m.Fuse(volume, candidate);
-    return m.frames.back();
-  }
-  // The window's most confident frame so far is held; ties keep the earlier.
-  if (!m.held || record.frame_confidence > m.frames[m.held->record].frame_confidence) {
-    if (m.held) m.frames[m.held->record].status = ThermalFrameStatus::kSkipped;
+  } else if (!m.held) {  // it opens a window
+    m.window_start_s = frame.timestamp_s;
+    record.status = ThermalFrameStatus::kHeld;
+    m.held = std::move(candidate);
+  } else if (record.frame_confidence > m.frames[m.held->record].frame_confidence) {  // ties: the earlier
+    m.frames[m.held->record].status = ThermalFrameStatus::kSkipped;
     record.status = ThermalFrameStatus::kHeld;
     m.held = std::move(candidate);
   } else {
     record.status = ThermalFrameStatus::kSkipped;
   }
-  if (++m.window_frames == m.options.frame_window) Flush(volume);
   return m.frames.back();
 }
 
@@ -528,7 +532,6 @@ void ThermalFusion::Flush(const TsdfVolume& volume) {
   Impl& m = *impl_;
   if (m.held) m.Fuse(volume, *m.held);
   m.held.reset();
-  m.window_frames = 0;
 }
 
 void ThermalFusion::Finish() {

@@ -193,8 +193,8 @@ struct ThermalFusion::Impl {
   std::vector<Eigen::Vector3f> depth_rays;  // each depth pixel's ray (z = 1), built on first use
   std::vector<std::vector<SplatRef>> splat_scratch;
   cv::Mat previous_image;
-  // frame_window: the most confident frame of the current window so far, with what its
-  // fusion needs, and how many frames with a pose the window has had.
+  // frame_interval_s: the most confident frame of the current window so far, with what its
+  // fusion needs, and the window's start (its first frame's thermal-clock time).
   struct HeldFrame {
     size_t record = 0;  // its index in `frames`
     cv::Mat image;      // apparent °C (its own copy)
@@ -204,7 +204,7 @@ struct ThermalFusion::Impl {
     std::vector<LiveDepth> live;
   };
   std::optional<HeldFrame> held;
-  int window_frames = 0;
+  double window_start_s = 0;
   // Median range (m) of the last fused frame's hits: where the frame confidence evaluates
   // the motion blur before the frame's own rays are cast. 1.5 m before any.
   double reference_range_m = 1.5;
@@ -272,7 +272,7 @@ struct ThermalFusion::Impl {
     return thermal_timestamp_s - *(it - 1);
   }
 
-  // c1^p1 · c5^p5 (ThermalFusionOptions::frame_window): the mean over a 3×3 grid of the
+  // c1^p1 · c5^p5 (ThermalFusionOptions::frame_interval_s): the mean over a 3×3 grid of the
   // thermal image's pixels of the motion term at reference_range_m, times the operating term.
   double FrameConfidence(const Eigen::Vector3d& linear_velocity_mps,
                          const Eigen::Vector3d& angular_velocity_radps, double operating) const;

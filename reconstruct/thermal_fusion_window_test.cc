@@ -1,4 +1,5 @@
-// ThermalFusionOptions::frame_window: of each run of frames, only the most confident is fused.
+// ThermalFusionOptions::frame_interval_s: of each window of frames, only the most confident is
+// fused.
 
 #include <cmath>
 #include <random>
@@ -50,7 +51,7 @@ TEST(ThermalFusionWindowTest, FusesTheLeastBlurredFrameOfEachWindow) {
   const core::Rig rig = ThermalRig(false);
   const TsdfVolume volume = PlaneVolume();
   ThermalFusionOptions options = TestOptions();
-  options.frame_window = 3;
+  options.frame_interval_s = 0.09;  // frames 1/30 s apart: windows of three
   ThermalFusion fusion(rig, options, EmissivityMap(*rig.thermal_settings), {});
   // 1 m/s blurs a point 0.8 m away by 64 px · 1.25 /s · 10 ms = 0.8 px (c1 ≈ 0.73); 0.1 m/s
   // by 0.08 px (c1 ≈ 0.997). Windows {0 1 2} {3 4 5} {6}: the slow frames 1 and 5, and 6,
@@ -58,9 +59,12 @@ TEST(ThermalFusionWindowTest, FusesTheLeastBlurredFrameOfEachWindow) {
   const Views views = SweepWithSpeeds({1.0, 0.1, 1.0, 1.0, 1.0, 0.1, 1.0});
   using S = ThermalFrameStatus;
   const std::vector<S> on_arrival = AddAll(fusion, rig, volume, views);
-  // On arrival: the first of a window is held; a more confident one takes its place; the
-  // window's last frame closes it and the held one is fused then (frame 5 closes its own).
-  EXPECT_EQ(on_arrival, (std::vector<S>{S::kHeld, S::kHeld, S::kSkipped, S::kHeld, S::kSkipped, S::kFused, S::kHeld}));
+  // On arrival: a window's first frame is held; a more confident one takes its place; the
+  // next window's first frame closes it (the held one is fused then).
+  EXPECT_EQ(on_arrival, (std::vector<S>{S::kHeld, S::kHeld, S::kSkipped, S::kHeld, S::kSkipped, S::kHeld, S::kHeld}));
+  EXPECT_EQ(fusion.frames()[1].status, S::kFused);  // when frame 3 closed its window
+  EXPECT_EQ(fusion.frames()[5].status, S::kFused);  // frame 6
+  EXPECT_EQ(fusion.frames()[6].status, S::kHeld);   // until the flush
   fusion.Flush(volume);
   fusion.Finish();
   const std::vector<ThermalFrameRecord>& frames = fusion.frames();
@@ -103,7 +107,7 @@ TEST(ThermalFusionWindowTest, AFrameRightAfterAShutterEventLosesToALaterOneAndTi
   const core::Rig rig = ThermalRig(false);
   const TsdfVolume volume = PlaneVolume();
   ThermalFusionOptions options = TestOptions();
-  options.frame_window = 3;
+  options.frame_interval_s = 0.09;
   // c5 0 until 0.05 s after the event at 0, rising to 1 at 0.13 s.
   options.confidence.ffc_settle_s = 0.05;
   options.confidence.ffc_ramp_s = 0.08;
@@ -127,10 +131,12 @@ TEST(ThermalFusionWindowTest, AFrameRightAfterAShutterEventLosesToALaterOneAndTi
   EXPECT_EQ(frames[5].frame_confidence, 1.0);
 }
 
-TEST(ThermalFusionWindowTest, WindowOfOneFusesEveryFrameAsArrived) {
+TEST(ThermalFusionWindowTest, IntervalZeroFusesEveryFrameAsItComes) {
   const core::Rig rig = ThermalRig(false);
   const TsdfVolume volume = PlaneVolume();
-  ThermalFusion fusion(rig, TestOptions(), EmissivityMap(*rig.thermal_settings), {});
+  ThermalFusionOptions options = TestOptions();
+  ASSERT_EQ(options.frame_interval_s, 0.0);
+  ThermalFusion fusion(rig, options, EmissivityMap(*rig.thermal_settings), {});
   const Views views = SweepWithSpeeds({1.0, 0.1, 1.0});
   const std::vector<ThermalFrameStatus> statuses = AddAll(fusion, rig, volume, views);
   EXPECT_EQ(statuses, std::vector<ThermalFrameStatus>(3, ThermalFrameStatus::kFused));
@@ -141,11 +147,14 @@ TEST(ThermalFusionWindowTest, WindowOfOneFusesEveryFrameAsArrived) {
 
 TEST(ThermalFusionWindowTest, CheckNamesTheField) {
   ThermalFusionOptions o;
-  o.frame_window = 0;
-  EXPECT_EQ(o.Check().rfind("frame_window", 0), 0u) << o.Check();
-  o.frame_window = 31;
-  EXPECT_EQ(o.Check().rfind("frame_window", 0), 0u) << o.Check();
-  o.frame_window = 30;
+  EXPECT_EQ(o.frame_interval_s, 0.1);
+  o.frame_interval_s = -0.01;
+  EXPECT_EQ(o.Check().rfind("frame_interval_s", 0), 0u) << o.Check();
+  o.frame_interval_s = 1.5;
+  EXPECT_EQ(o.Check().rfind("frame_interval_s", 0), 0u) << o.Check();
+  o.frame_interval_s = std::nan("");
+  EXPECT_EQ(o.Check().rfind("frame_interval_s", 0), 0u) << o.Check();
+  o.frame_interval_s = 0;
   EXPECT_EQ(o.Check(), "");
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -143,29 +144,46 @@ TEST(ReconstructThermalCli, SlowDepthStreamStillPosesEveryFrame) {
   EXPECT_NEAR(json["thermal"]["settings"]["max_pose_gap_s"].get<double>(), 0.3, 0.01);
 }
 
-// --thermal-frame-window 3: one frame fused per run of three with a pose (frozen frames do
-// not count), the others skipped, none left held at the end; the model still has temperature
-// where the window of 1 gave it (a 30 Hz sweep's consecutive frames see the same surface).
-TEST(ReconstructThermalCli, FrameWindowFusesOneFrameInEachRunOfThree) {
+// Frame selection (--thermal-frame-interval, 0.1 s by default): the frames with a pose
+// (frozen ones do not count) fall into windows — a window opens with a frame and holds those
+// less than 0.1 s after it — and one frame per window is fused, the others skipped, none
+// left held at the end; the model still has temperature where fusing every frame (0) gave it
+// (a 30 Hz sweep's consecutive frames see the same surface).
+TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
   const std::string base = "reconstruct " + ThermalScan().string() + " --poses " +
                            (ThermalScan() / "groundtruth.txt").string() + " --start-at-groundtruth --voxel-size 0.01";
-  const fs::path every = FreshPath("every"), third = FreshPath("third");
-  const Result r1 = Heatwave(base + " --out " + every.string());
-  ASSERT_EQ(r1.exit_code, 0) << r1.output;
-  const Result r3 = Heatwave(base + " --out " + third.string() + " --thermal-frame-window 3");
-  ASSERT_EQ(r3.exit_code, 0) << r3.output;
-  const nlohmann::json j1 = nlohmann::json::parse(Read(every / "reconstruct.json"))["thermal"];
-  const nlohmann::json j3 = nlohmann::json::parse(Read(third / "reconstruct.json"))["thermal"];
-  EXPECT_EQ(j3["settings"]["frame_window"].get<int>(), 3);
-  const int candidates = j1["summary"]["fused"].get<int>() + j1["summary"]["no_surface"].get<int>();
-  ASSERT_GE(candidates, 9) << j1["summary"].dump();
-  EXPECT_EQ(j1["summary"]["skipped"].get<int>(), 0);
-  const int fused3 = j3["summary"]["fused"].get<int>() + j3["summary"]["no_surface"].get<int>();
-  EXPECT_EQ(fused3, (candidates + 2) / 3) << j3["summary"].dump();
-  EXPECT_EQ(j3["summary"]["skipped"].get<int>(), candidates - fused3) << j3["summary"].dump();
-  EXPECT_EQ(j3["summary"]["frozen"].get<int>(), j1["summary"]["frozen"].get<int>());
+  const fs::path every = FreshPath("every"), windowed = FreshPath("windowed");
+  const Result r0 = Heatwave(base + " --out " + every.string() + " --thermal-frame-interval 0");
+  ASSERT_EQ(r0.exit_code, 0) << r0.output;
+  const Result r = Heatwave(base + " --out " + windowed.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j0 = nlohmann::json::parse(Read(every / "reconstruct.json"))["thermal"];
+  const nlohmann::json j = nlohmann::json::parse(Read(windowed / "reconstruct.json"))["thermal"];
+  EXPECT_EQ(j0["settings"]["frame_interval_s"].get<double>(), 0.0);
+  EXPECT_EQ(j["settings"]["frame_interval_s"].get<double>(), 0.1);
+  EXPECT_EQ(j0["summary"]["skipped"].get<int>(), 0);
+  // The candidates (every frame fused or without surface at interval 0) and their windows.
+  std::vector<double> candidates_s;
+  for (const nlohmann::json& f : j0["frames"]) {
+    const std::string status = f["status"].get<std::string>();
+    if (status == "fused" || status == "no-surface") candidates_s.push_back(f["timestamp_s"].get<double>());
+  }
+  ASSERT_GE(candidates_s.size(), 9u) << j0["summary"].dump();
+  int windows = 0;
+  double start_s = -1e300;
+  for (double t : candidates_s) {
+    if (t >= start_s + 0.1) {
+      ++windows;
+      start_s = t;
+    }
+  }
+  const int fused = j["summary"]["fused"].get<int>() + j["summary"]["no_surface"].get<int>();
+  EXPECT_EQ(fused, windows) << j["summary"].dump();
+  EXPECT_LT(fused, static_cast<int>(candidates_s.size()));
+  EXPECT_EQ(j["summary"]["skipped"].get<int>(), static_cast<int>(candidates_s.size()) - fused) << j["summary"].dump();
+  EXPECT_EQ(j["summary"]["frozen"].get<int>(), j0["summary"]["frozen"].get<int>());
   int skipped = 0;
-  for (const nlohmann::json& f : j3["frames"]) {
+  for (const nlohmann::json& f : j["frames"]) {
     EXPECT_NE(f["status"].get<std::string>(), "held");
     if (f["status"].get<std::string>() == "skipped") {
       ++skipped;
@@ -174,17 +192,17 @@ TEST(ReconstructThermalCli, FrameWindowFusesOneFrameInEachRunOfThree) {
     EXPECT_GE(f["frame_confidence"].get<double>(), 0);
     EXPECT_LE(f["frame_confidence"].get<double>(), 1);
   }
-  EXPECT_EQ(skipped, candidates - fused3);
-  EXPECT_NE(r3.output.find("skipped"), std::string::npos) << r3.output;
+  EXPECT_EQ(skipped, j["summary"]["skipped"].get<int>());
+  EXPECT_NE(r.output.find("skipped"), std::string::npos) << r.output;
   auto observed = [](const fs::path& out) {
     const hw::core::PlyMesh model = hw::core::ReadPly(out / "model.ply");
     int n = 0;
     for (double v : model.Get("temperature_views").values) n += v > 0;
     return n;
   };
-  const int observed1 = observed(every), observed3 = observed(third);
-  EXPECT_GT(observed3, observed1 * 9 / 10) << observed1 << " " << observed3;
-  EXPECT_LE(observed3, observed1);
+  const int observed0 = observed(every), observed1 = observed(windowed);
+  EXPECT_GT(observed1, observed0 * 9 / 10) << observed0 << " " << observed1;
+  EXPECT_LE(observed1, observed0);
 }
 
 TEST(ReconstructThermalCli, ScanWithoutThermalFramesWarnsAndWritesNoTemperature) {
@@ -248,8 +266,8 @@ TEST(ReconstructThermalCli, BadThermalOptionsAreExit2) {
   const std::string base = "reconstruct " + ThermalScan().string() + " --out " + FreshPath("out").string() + kOptions;
   for (const char* bad : {" --thermal-method median", " --recency-bias 1.5", " --confidence-powers 1,1,1",
                           " --confidence-powers 1,1,-1,1,1", " --emissivity-from-truth",
-                          " --min-ray-confidence 1", " --thermal-frame-window 0",
-                          " --thermal-frame-window 31"}) {
+                          " --min-ray-confidence 1", " --thermal-frame-interval -1",
+                          " --thermal-frame-interval 2"}) {
     const Result r = Heatwave(base + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
   }
