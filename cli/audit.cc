@@ -170,8 +170,12 @@ std::string FormatAuditSummary(const AuditResult& r) {
   out += core::StringPrintf("Reconstruct %d depth frames: %d fused, %d lost, %d missing; model %zu triangles, %.2f m2 (%.1f s)\n",
                             rec.depth_frames, rec.fused, rec.lost, rec.missing, rec.faces, rec.area_m2, r.reconstruct_s);
   if (rec.thermal) {
-    out += core::StringPrintf("Temperature %d of %d thermal frames fused; %d vertices with temperature (%s)\n",
-                              rec.thermal->fused, rec.thermal->frames, rec.thermal->vertices_observed,
+    out += core::StringPrintf("Temperature %d of %d thermal frames fused", rec.thermal->fused, rec.thermal->frames);
+    if (rec.thermal->skipped > 0) {
+      out += core::StringPrintf(" (%d skipped: the sharpest of each %g s fused)", rec.thermal->skipped,
+                                rec.thermal->frame_interval_s);
+    }
+    out += core::StringPrintf("; %d vertices with temperature (%s)\n", rec.thermal->vertices_observed,
                               rec.thermal->method.c_str());
   }
   out += core::StringPrintf("Analyze    %.2f m2 with temperature, %.1f to %.1f C; %zu images (%.1f s)\n",

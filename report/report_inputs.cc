@@ -275,6 +275,8 @@ ReconstructionRecord ReadReconstructionRecord(const fs::path& path) {
     const Json& sum = r.At(th, "summary", "thermal");
     o.thermal_frames = r.Integer(sum, "frames", "thermal.summary");
     o.thermal_fused = r.Integer(sum, "fused", "thermal.summary");
+    if (r.Has(sum, "skipped")) o.thermal_skipped = r.Integer(sum, "skipped", "thermal.summary");
+    if (r.Has(ts, "frame_interval_s")) o.thermal_frame_interval_s = r.Number(ts, "frame_interval_s", "thermal.settings");
     o.vertices_with_temperature = r.Integer(sum, "vertices_with_temperature", "thermal.summary");
   }
   o.warnings = r.Strings(root, "warnings", "");

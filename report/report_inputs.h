@@ -55,6 +55,10 @@ struct ReconstructionRecord {
   std::optional<double> ate_rmse_m;  // synthetic scans with groundtruth
   bool has_thermal = false;
   int thermal_frames = 0, thermal_fused = 0, vertices_with_temperature = 0;
+  // Frames skipped by frame selection and its window (s); 0 and 0 in a reconstruct.json
+  // written before it (stop 48), which lacks the keys.
+  int thermal_skipped = 0;
+  double thermal_frame_interval_s = 0;
   std::string thermal_method, emissivity;
   std::vector<std::string> warnings;
 };

@@ -322,7 +322,12 @@ Section ScanSection(const AnalysisRecord& a, const std::optional<ReconstructionR
                                                     rec->depth_frames, rec->fused, rec->tracked, rec->recovered,
                                                     rec->lost, rec->no_depth, rec->missing)});
     if (rec->has_thermal) {
-      kv.rows.push_back({"Thermal frames", StringPrintf("%d; %d fused", rec->thermal_frames, rec->thermal_fused)});
+      std::string thermal = StringPrintf("%d; %d fused", rec->thermal_frames, rec->thermal_fused);
+      if (rec->thermal_skipped > 0) {
+        thermal += StringPrintf(" (the sharpest of each %g s), %d skipped", rec->thermal_frame_interval_s,
+                                rec->thermal_skipped);
+      }
+      kv.rows.push_back({"Thermal frames", thermal});
       kv.rows.push_back({"Temperature estimate", rec->thermal_method + "; emissivity " + rec->emissivity});
     }
     kv.rows.push_back({"Model resolution", StringPrintf("%.1f mm voxels", rec->voxel_size_m * 1000)});
