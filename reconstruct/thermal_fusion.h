@@ -107,15 +107,18 @@ struct ThermalFusionOptions {
   // ties go to the earlier. The others are skipped (ThermalFrameStatus::kSkipped). A frame
   // costs its raycast and splatting (~100 ms for 320×240 on two cores, README), so a 30 Hz
   // camera's stream costs 3 s per second of scanning; its consecutive frames are nearly the
-  // same view, and the ones skipped are those the confidence would have discounted. 0.1 s
-  // (at most 10 frames a second, the rate of a 9 Hz Lepton, whose every frame is fused):
-  // measured on full-size 4 s sweeps (README, Frame selection, measured), the smooth ones'
-  // error unchanged (offline 0.588 → 0.574 K after gain/offset) with 1.8–2.9 % fewer vertices
-  // observed, the jerky one's +0.05 K, the whole pipeline 2× faster (5.8 → 12.9 frames/s).
+  // same view, and the ones skipped are those the confidence would have discounted. 0.09 s:
+  // about 10 fused frames a second — three frames per window at 30 Hz, six at 60 Hz, each
+  // window's end 10 and 7 ms from a frame, so timestamp jitter does not move frames across
+  // it — and every frame of a 9 Hz camera (a Lepton: 21 ms of margin). Measured on
+  // full-size 4 s sweeps (README, Frame selection, measured): the smooth ones' error
+  // unchanged (offline 0.588 → 0.569 K after gain/offset) with 1.6–2.6 % fewer vertices
+  // observed, the jerky one's +0.04 K, the whole pipeline 1.7–2.1× faster (5.8 → 12.3
+  // frames/s).
   // The chosen frame is held until the window closes (the next window's first frame, or
   // Flush): live use fuses it up to frame_interval_s plus a frame period late. 0: every frame
   // as it comes. s, [0, 1].
-  double frame_interval_s = 0.1;
+  double frame_interval_s = 0.09;
   // Depth range of the thermal rays, m (the pipeline sets it from its own).
   double min_depth_m = 0.3;  // >= 0
   double max_depth_m = 5.0;  // > min_depth_m

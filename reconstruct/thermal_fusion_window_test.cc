@@ -147,7 +147,7 @@ TEST(ThermalFusionWindowTest, IntervalZeroFusesEveryFrameAsItComes) {
 
 TEST(ThermalFusionWindowTest, CheckNamesTheField) {
   ThermalFusionOptions o;
-  EXPECT_EQ(o.frame_interval_s, 0.1);
+  EXPECT_EQ(o.frame_interval_s, 0.09);
   o.frame_interval_s = -0.01;
   EXPECT_EQ(o.Check().rfind("frame_interval_s", 0), 0u) << o.Check();
   o.frame_interval_s = 1.5;

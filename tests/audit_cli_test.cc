@@ -70,7 +70,7 @@ TEST(AuditCli, AuditsAScanEndToEnd) {
   EXPECT_EQ(html.find("<img src=x"), std::string::npos);
   // The scan's record says that frame selection skipped thermal frames (a client reading
   // "8 of 24 fused" alone would ask where the rest went).
-  EXPECT_NE(html.find(" fused (the sharpest of each 0.1 s), "), std::string::npos);
+  EXPECT_NE(html.find(" fused (the sharpest of each 0.09 s), "), std::string::npos);
   if (!HavePoppler()) GTEST_SKIP() << "poppler-utils not installed (scripts/install-deps.sh installs them)";
   const Result text = hw::test::RunCommand("pdftotext -enc UTF-8 " + (out / "report.pdf").string() + " -");
   ASSERT_EQ(text.exit_code, 0) << text.output;

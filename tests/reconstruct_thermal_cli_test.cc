@@ -144,9 +144,9 @@ TEST(ReconstructThermalCli, SlowDepthStreamStillPosesEveryFrame) {
   EXPECT_NEAR(json["thermal"]["settings"]["max_pose_gap_s"].get<double>(), 0.3, 0.01);
 }
 
-// Frame selection (--thermal-frame-interval, 0.1 s by default): the frames with a pose
+// Frame selection (--thermal-frame-interval, 0.09 s by default): the frames with a pose
 // (frozen ones do not count) fall into windows — a window opens with a frame and holds those
-// less than 0.1 s after it — and one frame per window is fused, the others skipped, none
+// less than 0.09 s after it — and one frame per window is fused, the others skipped, none
 // left held at the end; the model still has temperature where fusing every frame (0) gave it
 // (a 30 Hz sweep's consecutive frames see the same surface).
 TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
@@ -160,7 +160,7 @@ TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
   const nlohmann::json j0 = nlohmann::json::parse(Read(every / "reconstruct.json"))["thermal"];
   const nlohmann::json j = nlohmann::json::parse(Read(windowed / "reconstruct.json"))["thermal"];
   EXPECT_EQ(j0["settings"]["frame_interval_s"].get<double>(), 0.0);
-  EXPECT_EQ(j["settings"]["frame_interval_s"].get<double>(), 0.1);
+  EXPECT_EQ(j["settings"]["frame_interval_s"].get<double>(), 0.09);
   EXPECT_EQ(j0["summary"]["skipped"].get<int>(), 0);
   // The candidates (every frame fused or without surface at interval 0) and their windows.
   std::vector<double> candidates_s;
@@ -172,7 +172,7 @@ TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
   int windows = 0;
   double start_s = -1e300;
   for (double t : candidates_s) {
-    if (t >= start_s + 0.1) {
+    if (t >= start_s + 0.09) {
       ++windows;
       start_s = t;
     }
