@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "core/radiometry.h"
 #include "reconstruct/thermal_fusion_test_support.h"
 
 namespace hw::reconstruct {
