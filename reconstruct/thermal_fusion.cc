@@ -516,11 +516,10 @@ void ThermalFusion::Impl::Fuse(const TsdfVolume& volume, const HeldFrame& frame)
   record.fuse_ms = internal::MsSince(start);
   record.status = record.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;
   // The median range of the hits (every 7th pixel: ~11 k of a 320×240 frame), for the next
-  // frames' confidence.
+  // frames' confidence: from the ranges ShadeRays kept (NaN without a hit).
   std::vector<float> ranges;
-  const Eigen::Vector3f origin = frame.world_from_thermal.translation.cast<float>();
-  for (size_t i = 0; i < map.points.size(); i += 7) {
-    if (IsValid(map.points[i])) ranges.push_back((map.points[i] - origin).norm());
+  for (size_t i = 0; i < range_scratch.size(); i += 7) {
+    if (std::isfinite(range_scratch[i])) ranges.push_back(range_scratch[i]);
   }
   if (!ranges.empty()) {
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
