@@ -20,6 +20,11 @@
 #                view cap (--thermal-max-views 0): the fusion as the table's first run had it
 #   NAME-iS      any of the above with --thermal-frame-interval S: only the most confident
 #                thermal frame of each S seconds fused (e.g. rig-i0 every frame, gt-poses-i0.3)
+#   NAME-b0      any of the above with --thermal-background 0: each fused frame's shading and
+#                splatting inline instead of beside the depth pipeline (e.g. rig-b0)
+# With --baseline BIN (an earlier build's heatwave), each config also runs with BIN right
+# before this build's run, as NAME@base: the two builds side by side on the same input, in
+# one run (a -b0 config runs only with this build).
 # All runs start at the groundtruth pose (the model is in the truth's frame). heatwave
 # reconstruct samples every method (latest, mean, capped-mean, online, offline) at the model's
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
@@ -30,7 +35,7 @@
 # alone; OUT_DIR/summary.tsv holds the same rows.
 #
 # Usage: bench/thermal_fusion.sh [--build DIR] [--data DIR] [--out DIR] [--scans "A B"]
-#                                [--configs "A B"]  (default: all six above)
+#                                [--configs "A B"]  (default: all six above) [--baseline BIN]
 #   scans: eqT4 (equipment, smooth), bdT4 (building, smooth), eqJ4 (equipment, jerky)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,6 +45,7 @@ data=""
 out=""
 scans="eqT4 bdT4 eqJ4"
 configs="no-thermal rig truth gt-poses gt-no-conf gt-no-edge"
+baseline=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build=$2; shift 2 ;;
@@ -47,7 +53,8 @@ while [[ $# -gt 0 ]]; do
     --out) out=$2; shift 2 ;;
     --scans) scans=$2; shift 2 ;;
     --configs) configs=$2; shift 2 ;;
-    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
+    --baseline) baseline=$2; shift 2 ;;
+    -h|--help) sed -n '2,39p' "$0"; exit 0 ;;
     *) echo "unknown option: $1" >&2; exit 2 ;;
   esac
 done
@@ -58,6 +65,11 @@ mkdir -p "$data" "$out"
 # A copy, so that a rebuild during the (long) run does not pull the binary away.
 heatwave=$out/heatwave
 cp "$build/cli/heatwave" "$heatwave"
+if [[ -n $baseline ]]; then
+  [[ -x $baseline ]] || { echo "--baseline $baseline: not an executable" >&2; exit 2; }
+  cp "$baseline" "$out/heatwave-base"
+  baseline=$out/heatwave-base
+fi
 
 synth_args() {
   case "$1" in
@@ -80,7 +92,13 @@ for scan in $scans; do
   for config in $configs; do
     args=(--start-at-groundtruth --overwrite -q)
     base=$config
-    if [[ $config =~ ^(.*)-i([0-9.]+)$ ]]; then
+    background=1
+    if [[ $base =~ ^(.*)-b0$ ]]; then
+      base=${BASH_REMATCH[1]}
+      background=0
+      args+=(--thermal-background 0)
+    fi
+    if [[ $base =~ ^(.*)-i([0-9.]+)$ ]]; then
       base=${BASH_REMATCH[1]}
       args+=(--thermal-frame-interval "${BASH_REMATCH[2]}")
     fi
@@ -95,9 +113,14 @@ for scan in $scans; do
       rig) ;;
       *) echo "unknown config $config" >&2; exit 2 ;;
     esac
-    echo "== $scan $config" >&2
-    "$heatwave" reconstruct "$data/$scan" --out "$out/$scan-$config" "${args[@]}"
-    python3 - "$out/$scan-$config/reconstruct.json" "$scan" "$config" >> "$summary" <<'EOF'
+    runs=("$config:$heatwave")
+    [[ -n $baseline && $background == 1 ]] && runs=("$config@base:$baseline" "${runs[@]}")
+    for run in "${runs[@]}"; do
+      name=${run%%:*}
+      binary=${run#*:}
+      echo "== $scan $name" >&2
+      "$binary" reconstruct "$data/$scan" --out "$out/$scan-$name" "${args[@]}"
+      python3 - "$out/$scan-$name/reconstruct.json" "$scan" "$name" >> "$summary" <<'EOF'
 import json, sys
 d = json.load(open(sys.argv[1]))
 fps = d["timings"]["frames_per_s"]
@@ -106,7 +129,9 @@ t = d.get("thermal")
 if t is None:
     print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 10)
     sys.exit()
-# Frames/s of the whole pipeline: depth processing plus thermal fusion per depth frame.
+# Frames/s of the whole pipeline: the caller's time in depth processing, thermal fusion (a
+# stage running beside it, --thermal-background, counts where the caller waits for it) and
+# the offline estimate, per depth frame; decoding the frames excluded.
 total_s = d["timings"]["process_s"] + t["timings"]["fusion_s"] + t["timings"]["offline_s"]
 fps_all = frames / total_s
 ms = t["timings"]["mean_raycast_ms"] + t["timings"]["mean_fuse_ms"]
@@ -117,6 +142,7 @@ for m in t.get("truth_evaluation", []):
                      f("rmse_affine_k"), f("p95_abs_affine_k"), f("rmse_low_emissivity_k"),
                      f("mean_low_emissivity_k"), str(m["compared"])]))
 EOF
+    done
   done
 done
 echo

@@ -55,6 +55,7 @@ struct ThermalCommandResult {
   int fused = 0, frozen = 0, no_pose = 0, no_surface = 0, missing = 0, after_end = 0;
   int skipped = 0;  // a more confident frame of its window fused instead (--thermal-frame-interval)
   double frame_interval_s = 0;
+  bool background = false;  // shading and splatting ran beside the depth pipeline
   int64_t rays = 0, hits = 0, rays_fused = 0;  // over all frames given to fusion
   int64_t rays_occluded = 0;  // hits behind something the live depth saw nearer
   int occluded_frames = 0;    // frames with such rays

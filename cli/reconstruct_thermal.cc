@@ -127,6 +127,7 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
     }
   }
   r.frame_interval_s = fusion.options().frame_interval_s;
+  r.background = fusion.options().background && r.frame_interval_s > 0;
   r.scene_correction = fusion.options().scene_correction.frame_offset || fusion.options().scene_correction.pixel_offset;
   if (r.fused > 0) {
     r.raycast_ms /= r.fused;
@@ -215,6 +216,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Bool("keep_observations", o.keep_observations)
       .Int("max_views_per_region", o.max_views_per_region)
       .Number("frame_interval_s", o.frame_interval_s)
+      .Bool("background", o.background)
       .Add("scene_correction", scene.str())
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
@@ -316,9 +318,10 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
 std::string FormatThermalSummary(const ThermalCommandResult& r) {
   std::string out = core::StringPrintf(
       "Thermal    %d frames: %d fused, %d frozen (shutter), %d without pose, %d after the last depth pose, "
-      "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f)\n",
+      "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f%s)\n",
       r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
-      r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms);
+      r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms,
+      r.background ? " beside the depth pipeline" : "");
   if (r.skipped > 0) {
     out += core::StringPrintf("           %d skipped: of the frames within %g s only the most confident (least "
                               "blurred) is fused (--thermal-frame-interval)\n",

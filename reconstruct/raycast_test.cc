@@ -256,6 +256,15 @@ TEST(Raycast, RegionCullingKeepsEveryBlockInView) {
     const auto all = internal::ProjectBlocks(volume, camera, pose, 0.3f, 4.0f, false);
     const auto culled = internal::ProjectBlocks(volume, camera, pose, 0.3f, 4.0f, true);
     ASSERT_EQ(all.near_m.size(), culled.near_m.size());
+    // Projected on several threads (chunks of >= 2,000 blocks: 20,000 blocks make up to 10):
+    // the same ranges, bit for bit.
+    for (int threads : {2, 3}) {
+      for (bool cull : {false, true}) {
+        const auto split = internal::ProjectBlocks(volume, camera, pose, 0.3f, 4.0f, cull, threads);
+        EXPECT_EQ(split.near_m, all.near_m) << threads << " " << cull;
+        EXPECT_EQ(split.far_m, all.far_m) << threads << " " << cull;
+      }
+    }
     int covered = 0;
     for (size_t i = 0; i < all.near_m.size(); ++i) {
       EXPECT_EQ(all.near_m[i], culled.near_m[i]) << i;

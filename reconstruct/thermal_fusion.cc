@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <future>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -66,11 +67,75 @@ std::string ThermalFrameStatusName(ThermalFrameStatus status) {
 }
 
 
+void ThermalFusion::Impl::WarpLiveDepth(const core::Rigid3d& world_from_thermal, std::span<const LiveDepth> live) {
+  live_range.clear();
+  // Without the occlusion test nothing reads it (the raycast's hints take their window from
+  // the test's margin).
+  if (live.empty() || (options.occlusion_margin_m <= 0 && options.occlusion_margin_fraction <= 0)) return;
+  const int width = rays.width(), height = rays.height();
+  const int num_threads = std::min(ResolveThreads(options.num_threads), height);
+  // Every depth pixel's point, through the thermal lens model, the nearest range per thermal
+  // pixel — so that what stood on the thermal camera's own line of sight is found (the depth
+  // camera, 5 cm away, sees past an occluder's side that the thermal camera's ray meets).
+  if (depth_rays.empty()) {  // each depth pixel's ray (z = 1), NaN where the lens model has none
+    const core::CameraModel& d = rig.depth;
+    depth_rays.resize(size_t(d.width) * d.height);
+    for (int y = 0; y < d.height; ++y) {
+      for (int x = 0; x < d.width; ++x) {
+        const std::optional<Eigen::Vector3d> ray = d.Unproject(Eigen::Vector2d(x, y));
+        depth_rays[size_t(y) * d.width + x] = ray ? Eigen::Vector3f(ray->cast<float>()) : Eigen::Vector3f::Constant(kNaN);
+      }
+    }
+  }
+  const core::Rigid3d thermal_from_world_pose = world_from_thermal.Inverse();
+  std::vector<std::vector<float>>& buffers = live_range_scratch;
+  buffers.resize(num_threads);
+  for (auto& b : buffers) b.assign(size_t(width) * height, std::numeric_limits<float>::infinity());
+  const core::CameraModel& thermal_camera = *rig.thermal;
+  // Every step-th depth pixel along both axes: about one per thermal pixel (a 640×480
+  // depth image over a 320×240 thermal one: every second), a quarter of the work (the
+  // warp of every pixel took 16–18 ms of a thermal frame's 80); a thermal pixel no depth
+  // point lands on is covered by the occlusion test's dilation (ShadeRays), and its ray is
+  // cast without a hint.
+  const int step = std::max(1, rig.depth.width / std::max(1, width));
+  for (const LiveDepth& d : live) {
+    const core::Rigid3d thermal_from_depth = thermal_from_world_pose * d.world_from_depth;
+    const Eigen::Matrix3f rotation = thermal_from_depth.rotation.toRotationMatrix().cast<float>();
+    const Eigen::Vector3f translation = thermal_from_depth.translation.cast<float>();
+    const int rows = d.depth_m.rows, cols = d.depth_m.cols;
+    internal::RunChunks(num_threads, [&](int chunk) {
+      std::vector<float>& buffer = buffers[chunk];
+      const int band_rows = (rows + step - 1) / step;
+      for (int yb = chunk * band_rows / num_threads; yb < (chunk + 1) * band_rows / num_threads; ++yb) {
+        const int y = yb * step;
+        const float* row = d.depth_m.ptr<float>(y);
+        for (int x = 0; x < cols; x += step) {
+          const float z = row[x];
+          if (!(z > 0)) continue;
+          const Eigen::Vector3f& ray = depth_rays[size_t(y) * cols + x];
+          if (!IsValid(ray)) continue;
+          const Eigen::Vector3f p = rotation * (z * ray) + translation;
+          if (p.z() <= 1e-3f) continue;
+          const Eigen::Vector2d uv = thermal_camera.Project(p.cast<double>());
+          const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+          if (u < 0 || v < 0 || u >= width || v >= height) continue;
+          float& nearest = buffer[size_t(v) * width + u];
+          nearest = std::min(nearest, p.norm());
+        }
+      }
+    });
+  }
+  live_range.assign(buffers[0].begin(), buffers[0].end());
+  for (size_t b = 1; b < buffers.size(); ++b) {
+    for (size_t i = 0; i < live_range.size(); ++i) live_range[i] = std::min(live_range[i], buffers[b][i]);
+  }
+}
+
 std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
                                                        const core::Rigid3d& world_from_thermal,
                                                        const Eigen::Vector3d& linear_velocity_mps,
                                                        const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                                       std::span<const LiveDepth> live, ThermalFrameRecord& record) {
+                                                       ThermalFrameRecord& record) {
   const int width = map.width, height = map.height;
   const int num_threads = std::min(ResolveThreads(options.num_threads), height);
   std::vector<ShadePart>& parts = shade_scratch;
@@ -119,75 +184,21 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
     }
     return false;
   };
-  // The occlusion test: the live depth frames (the fused depth frames around the thermal
-  // frame's time) warped into this thermal view — every depth pixel's point, through the
-  // thermal lens model, the nearest range per thermal pixel — so that what stood on the
-  // thermal camera's own line of sight is found (the depth camera, 5 cm away, sees past an
-  // occluder's side that the thermal camera's ray meets). A hit whose model range lies
+  // The occlusion test (WarpLiveDepth has the live depth frames, the fused depth frames
+  // around the thermal frame's time, warped into this view): a hit whose model range lies
   // behind the live range by more than max(margin, fraction · live range) was occluded; a
   // ray is then rejected when a pixel within max(edge_radius_px, 1) of it is occluded: the
   // occluder's edge moves between the depth and thermal exposures (a walker 2 cm in 17 ms)
   // and the optics and lag spread it by a pixel (the silhouette rule's reasons).
-  const bool occlusion_test =
-      !live.empty() && (options.occlusion_margin_m > 0 || options.occlusion_margin_fraction > 0);
+  const bool occlusion_test = !live_range.empty();  // WarpLiveDepth fills it only for the test
   std::vector<uint8_t>& occluded_flag = occluded_scratch;
   if (occlusion_test) {
-    if (depth_rays.empty()) {  // each depth pixel's ray (z = 1), NaN where the lens model has none
-      const core::CameraModel& d = rig.depth;
-      depth_rays.resize(size_t(d.width) * d.height);
-      for (int y = 0; y < d.height; ++y) {
-        for (int x = 0; x < d.width; ++x) {
-          const std::optional<Eigen::Vector3d> ray = d.Unproject(Eigen::Vector2d(x, y));
-          depth_rays[size_t(y) * d.width + x] = ray ? Eigen::Vector3f(ray->cast<float>()) : Eigen::Vector3f::Constant(kNaN);
-        }
-      }
-    }
-    const core::Rigid3d thermal_from_world_pose = world_from_thermal.Inverse();
-    std::vector<std::vector<float>>& buffers = live_range_scratch;
-    buffers.resize(num_threads);
-    for (auto& b : buffers) b.assign(size_t(width) * height, std::numeric_limits<float>::infinity());
-    const core::CameraModel& thermal_camera = *rig.thermal;
-    // Every step-th depth pixel along both axes: about one per thermal pixel (a 640×480
-    // depth image over a 320×240 thermal one: every second), a quarter of the work (the
-    // warp of every pixel took 16–18 ms of a thermal frame's 80); a thermal pixel no depth
-    // point lands on is covered by its neighbours' dilation below.
-    const int step = std::max(1, rig.depth.width / std::max(1, width));
-    for (const LiveDepth& d : live) {
-      const core::Rigid3d thermal_from_depth = thermal_from_world_pose * d.world_from_depth;
-      const Eigen::Matrix3f rotation = thermal_from_depth.rotation.toRotationMatrix().cast<float>();
-      const Eigen::Vector3f translation = thermal_from_depth.translation.cast<float>();
-      const int rows = d.depth_m.rows, cols = d.depth_m.cols;
-      internal::RunChunks(num_threads, [&](int chunk) {
-        std::vector<float>& buffer = buffers[chunk];
-        const int band_rows = (rows + step - 1) / step;
-        for (int yb = chunk * band_rows / num_threads; yb < (chunk + 1) * band_rows / num_threads; ++yb) {
-          const int y = yb * step;
-          const float* row = d.depth_m.ptr<float>(y);
-          for (int x = 0; x < cols; x += step) {
-            const float z = row[x];
-            if (!(z > 0)) continue;
-            const Eigen::Vector3f& ray = depth_rays[size_t(y) * cols + x];
-            if (!IsValid(ray)) continue;
-            const Eigen::Vector3f p = rotation * (z * ray) + translation;
-            if (p.z() <= 1e-3f) continue;
-            const Eigen::Vector2d uv = thermal_camera.Project(p.cast<double>());
-            const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
-            if (u < 0 || v < 0 || u >= width || v >= height) continue;
-            float& nearest = buffer[size_t(v) * width + u];
-            nearest = std::min(nearest, p.norm());
-          }
-        }
-      });
-    }
     const float margin_m = static_cast<float>(options.occlusion_margin_m);
     const float fraction = static_cast<float>(options.occlusion_margin_fraction);
     occluded_flag.assign(size_t(width) * height, 0);
     for (size_t i = 0; i < occluded_flag.size(); ++i) {
-      float live_range = buffers[0][i];
-      for (size_t b = 1; b < buffers.size(); ++b) live_range = std::min(live_range, buffers[b][i]);
-      const float r = range[i];
-      occluded_flag[i] = std::isfinite(r) && std::isfinite(live_range) &&
-                         live_range < r - std::max(margin_m, fraction * live_range);
+      const float r = range[i], live = live_range[i];
+      occluded_flag[i] = std::isfinite(r) && std::isfinite(live) && live < r - std::max(margin_m, fraction * live);
     }
   }
   const int occlusion_radius = std::max(edge_radius, 1);
@@ -446,7 +457,10 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   // A frame past the current window closes it (first, so that this frame's confidence
   // reads the range of the frame fused now).
   const double interval_s = m.options.frame_interval_s;
-  if (m.held && !(frame.timestamp_s < m.window_start_s + interval_s)) Flush(volume);
+  if (m.held && !(frame.timestamp_s < m.window_start_s + interval_s)) {
+    m.Fuse(volume, *m.held);  // in the background: no wait here
+    m.held.reset();
+  }
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
   record.frame_confidence = m.FrameConfidence(linear_velocity_mps, angular_velocity_radps, operating);
   Impl::HeldFrame candidate{m.frames.size() - 1, m.previous_image, world_from_thermal, linear_velocity_mps,
@@ -495,47 +509,76 @@ double ThermalFusion::Impl::FrameConfidence(const Eigen::Vector3d& linear_veloci
 }
 
 void ThermalFusion::Impl::Fuse(const TsdfVolume& volume, const HeldFrame& frame) {
+  Wait();  // the previous frame's regions are this one's to update
   ThermalFrameRecord& record = frames[frame.record];
-  auto start = std::chrono::steady_clock::now();
+  const auto start = std::chrono::steady_clock::now();
   RaycastOptions raycast;
   raycast.min_depth_m = options.min_depth_m;
   raycast.max_depth_m = options.max_depth_m;
   raycast.num_threads = options.num_threads;
-  const PointMap map = Raycast(volume, rays, frame.world_from_thermal, raycast);
+  WarpLiveDepth(frame.world_from_thermal, frame.live);
+  // The live depth says where each ray's surface is: the ray searches there first, to the
+  // occlusion test's margin behind it (a hit farther behind would be rejected as occluded).
+  RayHints hints;
+  hints.range_m = live_range;
+  hints.behind_m = static_cast<float>(options.occlusion_margin_m);
+  hints.behind_fraction = static_cast<float>(options.occlusion_margin_fraction);
+  PointMap map = live_range.empty() ? Raycast(volume, rays, frame.world_from_thermal, raycast)
+                                    : Raycast(volume, rays, frame.world_from_thermal, raycast, hints);
   record.raycast_ms = internal::MsSince(start);
   record.rays = num_rays;
-
-  start = std::chrono::steady_clock::now();
-  const cv::Mat corrected = scene_correction.CorrectPixels(frame.image);
-  std::vector<Ray>& fused = ShadeRays(map, corrected, frame.world_from_thermal, frame.linear_velocity_mps,
-                                      frame.angular_velocity_radps, frame.operating, frame.live, record);
   record.live_depth = !frame.live.empty();
-  if (scene_correction.enabled()) CorrectFrame(fused, record);
-  camera_in_world = frame.world_from_thermal.translation.cast<float>();
-  Splat(fused, record);
-  record.fuse_ms = internal::MsSince(start);
-  record.status = record.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;
   // The median range of the hits (every 7th pixel: ~11 k of a 320×240 frame), for the next
-  // frames' confidence: from the ranges ShadeRays kept (NaN without a hit).
+  // frames' confidence (here, so that it does not wait for the background stage).
+  const Eigen::Vector3f origin = frame.world_from_thermal.translation.cast<float>();
   std::vector<float> ranges;
-  for (size_t i = 0; i < range_scratch.size(); i += 7) {
-    if (std::isfinite(range_scratch[i])) ranges.push_back(range_scratch[i]);
+  for (size_t i = 0; i < map.points.size(); i += 7) {
+    if (IsValid(map.points[i])) ranges.push_back((map.points[i] - origin).norm());
   }
   if (!ranges.empty()) {
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
     reference_range_m = ranges[ranges.size() / 2];
   }
+  // The rest touches only this object's regions, not the volume: it may run while the
+  // caller integrates the next depth frames (ThermalFusionOptions::background).
+  auto stage = [this, map = std::move(map), image = frame.image, world_from_thermal = frame.world_from_thermal,
+                linear = frame.linear_velocity_mps, angular = frame.angular_velocity_radps,
+                operating = frame.operating, frozen_s = last_frozen_s](ThermalFrameRecord& out) {
+    const auto stage_start = std::chrono::steady_clock::now();
+    const cv::Mat corrected = scene_correction.CorrectPixels(image);
+    std::vector<Ray>& fused = ShadeRays(map, corrected, world_from_thermal, linear, angular, operating, out);
+    if (scene_correction.enabled()) CorrectFrame(fused, frozen_s, out);
+    camera_in_world = world_from_thermal.translation.cast<float>();
+    Splat(fused, out);
+    out.fuse_ms = internal::MsSince(stage_start);
+    out.status = out.hits == 0 ? ThermalFrameStatus::kNoSurface : ThermalFrameStatus::kFused;
+  };
+  if (!options.background || options.frame_interval_s == 0) {
+    stage(record);
+    return;
+  }
+  background_index = frame.record;
+  background_record = record;
+  background = std::async(std::launch::async, [this, stage = std::move(stage)]() { stage(background_record); });
+}
+
+void ThermalFusion::Impl::Wait() {
+  if (!background.valid()) return;
+  background.get();  // rethrows what the stage threw
+  frames[background_index] = background_record;
 }
 
 void ThermalFusion::Flush(const TsdfVolume& volume) {
   Impl& m = *impl_;
   if (m.held) m.Fuse(volume, *m.held);
   m.held.reset();
+  m.Wait();
 }
 
 void ThermalFusion::Finish() {
   assert(!impl_->held && "ThermalFusion::Flush before Finish");
   Impl& m = *impl_;
+  m.Wait();
   m.finished = true;
   m.offline_rejected = 0;
   if (!m.options.keep_observations || m.num_records == 0) return;
@@ -572,6 +615,7 @@ void ThermalFusion::Finish() {
 
 PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& points_in_world,
                                         ThermalMethod method) const {
+  impl_->Wait();
   const Impl& m = *impl_;
   PointTemperatures out;
   const size_t n = points_in_world.size();
@@ -651,14 +695,25 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
   return out;
 }
 
-const std::vector<ThermalFrameRecord>& ThermalFusion::frames() const { return impl_->frames; }
+const std::vector<ThermalFrameRecord>& ThermalFusion::frames() const {
+  impl_->Wait();
+  return impl_->frames; }
 const ThermalFusionOptions& ThermalFusion::options() const { return impl_->options; }
-size_t ThermalFusion::NumRegions() const { return impl_->regions.size(); }
-size_t ThermalFusion::NumObservations() const { return impl_->num_records; }
-size_t ThermalFusion::NumObservationsDropped() const { return impl_->records_dropped; }
-int64_t ThermalFusion::OfflineRejected() const { return impl_->offline_rejected; }
+size_t ThermalFusion::NumRegions() const {
+  impl_->Wait();
+  return impl_->regions.size(); }
+size_t ThermalFusion::NumObservations() const {
+  impl_->Wait();
+  return impl_->num_records; }
+size_t ThermalFusion::NumObservationsDropped() const {
+  impl_->Wait();
+  return impl_->records_dropped; }
+int64_t ThermalFusion::OfflineRejected() const {
+  impl_->Wait();
+  return impl_->offline_rejected; }
 
 size_t ThermalFusion::MemoryBytes() const {
+  impl_->Wait();
   const Impl& m = *impl_;
   return m.regions.CapacityBytes() + m.frame_sums.CapacityBytes() + m.blocks.CapacityBytes() +
          m.block_index.size() * 32 +

@@ -119,6 +119,14 @@ struct ThermalFusionOptions {
   // Flush): live use fuses it up to frame_interval_s plus a frame period late. 0: every frame
   // as it comes. s, [0, 1].
   double frame_interval_s = 0.09;
+  // With frame_interval_s > 0: a fused frame's shading, correction and splatting (everything
+  // after its raycast; ~60 % of its cost, README) run on a thread of their own while the
+  // caller goes on — the depth pipeline integrating and tracking the next frames — and the
+  // next fusion, Flush, Finish or any accessor waits for them. The model and every record
+  // are the same bits either way; the depth pipeline alone leaves one of the two cores idle
+  // ~30 % of the time, which this fills. AddFrame's record of a frame fused in the
+  // background is complete after the next call (frames() waits).
+  bool background = true;
   // Depth range of the thermal rays, m (the pipeline sets it from its own).
   double min_depth_m = 0.3;  // >= 0
   double max_depth_m = 5.0;  // > min_depth_m
@@ -234,6 +242,8 @@ class ThermalFusion {
   // With frame_interval_s > 0 a frame may be held (kHeld) and fused by a later call, against
   // the volume that call is given: `live`'s images are kept (shared, not copied) until then,
   // so the caller must not write into them. The reference is valid until the next call.
+  // The volume is read only during the calls (ThermalFusionOptions::background runs on
+  // without it): the caller may integrate into it between them.
   const ThermalFrameRecord& AddFrame(const TsdfVolume& volume, const ThermalFrameInput& frame,
                                      const core::Trajectory& world_from_depth,
                                      std::span<const LiveDepth> live = {});

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <future>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -189,7 +190,10 @@ struct ThermalFusion::Impl {
   std::vector<Ray> fused_scratch;
   std::vector<float> range_scratch;  // ShadeRays: each pixel's hit distance, NaN without one
   std::vector<uint8_t> occluded_scratch;  // ShadeRays: hits the live depth saw occluded
-  std::vector<std::vector<float>> live_range_scratch;  // ShadeRays: live depth per thermal pixel, per thread
+  std::vector<std::vector<float>> live_range_scratch;  // WarpLiveDepth: its per-thread buffers
+  // WarpLiveDepth: the live depth's nearest range per thermal pixel, m (+inf: none); empty
+  // without live depth or without the occlusion test. The raycast's hints and that test.
+  std::vector<float> live_range;
   std::vector<Eigen::Vector3f> depth_rays;  // each depth pixel's ray (z = 1), built on first use
   std::vector<std::vector<SplatRef>> splat_scratch;
   cv::Mat previous_image;
@@ -204,6 +208,11 @@ struct ThermalFusion::Impl {
     std::vector<LiveDepth> live;
   };
   std::optional<HeldFrame> held;
+  // The background stage (options.background): the frame it fuses and its record, stored in
+  // frames[background_index] by Wait (AddFrame may grow `frames` meanwhile).
+  std::future<void> background;
+  size_t background_index = 0;
+  ThermalFrameRecord background_record;
   double window_start_s = 0;
   // Median range (m) of the last fused frame's hits: where the frame confidence evaluates
   // the motion blur before the frame's own rays are cast. 1.5 m before any.
@@ -215,6 +224,10 @@ struct ThermalFusion::Impl {
       : rig(r), options(o), emissivity(std::move(e)), ffc_timestamps_s(std::move(ffc)),
         band(core::BandRadiance(r.thermal_settings->spectral_band_um[0], r.thermal_settings->spectral_band_um[1])),
         rays(*r.thermal), scene_correction(o.scene_correction, r.thermal->width, r.thermal->height) {}
+  // The background stage uses this object: it must end first (its error has nowhere to go).
+  ~Impl() {
+    if (background.valid()) background.wait();
+  }
 
   // Region of voxel (i, j, k); creates it when `create`. -1 when absent (or out of range).
   int32_t RegionOf(int i, int j, int k, bool create, uint64_t& cached_key, int32_t& cached_block) {
@@ -276,19 +289,29 @@ struct ThermalFusion::Impl {
   // thermal image's pixels of the motion term at reference_range_m, times the operating term.
   double FrameConfidence(const Eigen::Vector3d& linear_velocity_mps,
                          const Eigen::Vector3d& angular_velocity_radps, double operating) const;
-  // Raycasts, shades, corrects and splats one frame; fills frames[frame.record].
+  // Raycasts, shades, corrects and splats one frame; fills frames[frame.record]. With
+  // options.background (and frame_interval_s > 0) everything after the raycast runs on a
+  // thread of its own until Wait(); the next Fuse waits for it first.
   void Fuse(const TsdfVolume& volume, const HeldFrame& frame);
-  // Computes the rays of one frame (parallel); returns the fused ones (valid until the
-  // next call).
+  // Waits for the background stage, if one runs, and stores its record; rethrows what it
+  // threw. Every public call that reads or changes the regions or the records calls it.
+  void Wait();
+  // Fills live_range from the live depth frames seen from world_from_thermal (cleared when
+  // `live` is empty or the occlusion test is off: both its margins 0).
+  void WarpLiveDepth(const core::Rigid3d& world_from_thermal, std::span<const LiveDepth> live);
+  // Computes the rays of one frame (parallel), with the occlusion test against live_range
+  // when it is filled; returns the fused ones (valid until the next call).
   std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
                                     const core::Rigid3d& world_from_thermal,
                                     const Eigen::Vector3d& linear_velocity_mps,
                                     const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                    std::span<const LiveDepth> live, ThermalFrameRecord& record);
+                                    ThermalFrameRecord& record);
   // Scene-based correction of one frame's rays (ThermalFusionOptions::scene_correction):
   // their residuals against the reference regions update the estimates, and the frame's
   // offset is taken off every ray (its surface temperature linearised: δ/ε).
-  void CorrectFrame(std::vector<Ray>& fused, ThermalFrameRecord& record);
+  // frozen_s: last_frozen_s as it was when the frame's fusion began (the caller may add
+  // frames meanwhile).
+  void CorrectFrame(std::vector<Ray>& fused, double frozen_s, ThermalFrameRecord& record);
   void Splat(const std::vector<Ray>& fused, ThermalFrameRecord& record);
   // Applies every update rule to region r from its frame sum (then zeroed); appends its
   // observation to frame_records when observations are kept. True when the region now has

@@ -13,7 +13,7 @@
 
 namespace hw::reconstruct {
 
-void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameRecord& record) {
+void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, double frozen_s, ThermalFrameRecord& record) {
   const SceneCorrectionOptions& o = options.scene_correction;
   // The latest shutter event (ffc.txt, or a frozen frame: the closure). Its offset is measured
   // once, on the first frame fused within the window after it with enough pairs, against the
@@ -22,7 +22,7 @@ void ThermalFusion::Impl::CorrectFrame(std::vector<Ray>& fused, ThermalFrameReco
   // so that a bias of one is carried on — measured in every frame, it accumulates.
   const double since_ffc = record.time_since_ffc_s;
   double event_s = std::isfinite(since_ffc) ? record.timestamp_s - since_ffc : -std::numeric_limits<double>::infinity();
-  if (last_frozen_s <= record.timestamp_s) event_s = std::max(event_s, last_frozen_s);
+  if (frozen_s <= record.timestamp_s) event_s = std::max(event_s, frozen_s);
   if (std::isfinite(event_s) && event_s != event_time_s) {
     event_time_s = event_s;
     event_frame = fused_frames;  // the views before this frame are the event's references

@@ -2,7 +2,9 @@
 // fused.
 
 #include <cmath>
+#include <cstring>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -143,6 +145,85 @@ TEST(ThermalFusionWindowTest, IntervalZeroFusesEveryFrameAsItComes) {
   fusion.Flush(volume);  // nothing held: no-op
   fusion.Finish();
   EXPECT_EQ(fusion.frames().size(), 3u);
+}
+
+// ThermalFusionOptions::background: the stage after each raycast on a thread of its own gives
+// the same bits as inline — every record (timings aside) and every method's estimate — with
+// the scene correction on (its state is the stage's), a shutter event, frozen frames added
+// while a stage may run (CorrectFrame reads the last frozen frame's time as it was when the
+// frame's fusion began), and the volume integrated between the calls as the depth pipeline
+// does, on the same thread pool (the stage must not read it; run under ThreadSanitizer too).
+TEST(ThermalFusionWindowTest, TheBackgroundStageGivesTheSameBits) {
+  const core::Rig rig = ThermalRig(false);
+  const PinholeCamera depth_camera = SmallCamera();
+  const Views views = SweepWithSpeeds({0.3, 0.1, 0.5, 0.2, 0.1, 0.4, 0.3, 0.1, 0.6, 0.2, 0.1, 0.3});
+  const std::vector<Eigen::Vector3f> points = PlanePoints();
+  struct Run {
+    std::vector<ThermalFrameRecord> frames;
+    std::vector<PointTemperatures> estimates;
+  };
+  auto run = [&](bool background) {
+    ThermalFusionOptions options = TestOptions();
+    options.frame_interval_s = 0.09;
+    options.background = background;
+    options.scene_correction.frame_offset = options.scene_correction.pixel_offset = true;
+    ThermalFusion fusion(rig, options, EmissivityMap(*rig.thermal_settings), {0.15});
+    TsdfVolume volume = PlaneVolume();
+    std::mt19937_64 rng(5);
+    cv::Mat previous;
+    for (size_t i = 0; i < views.thermal_times_s.size(); ++i) {
+      const double t = views.thermal_times_s[i];
+      const core::Rigid3d world_from_thermal = *views.trajectory.At(t) * rig.depth_from_thermal;
+      // Frames 4 and 8 repeat the one before (frozen: a shutter closure).
+      cv::Mat image = (i == 4 || i == 8) ? previous.clone() : RenderThermal(rig, world_from_thermal, 0.04, rng);
+      previous = image;
+      fusion.AddFrame(volume, {static_cast<int>(i), t, image}, views.trajectory);
+      // The depth frame after it, integrated while the stage of a frame fused above may run.
+      const core::Rigid3d world_from_depth = *views.trajectory.At(t + 1 / 60.0);
+      volume.Integrate(RenderPlane(depth_camera, world_from_depth, Eigen::Vector3d(0, 0, 1), kPlaneZ), depth_camera,
+                       world_from_depth);
+    }
+    fusion.Flush(volume);
+    fusion.Finish();
+    Run r;
+    r.frames = fusion.frames();
+    for (ThermalMethod method : {ThermalMethod::kLatest, ThermalMethod::kMean, ThermalMethod::kCappedMean,
+                                 ThermalMethod::kOnline, ThermalMethod::kOffline}) {
+      r.estimates.push_back(fusion.Sample(points, method));
+    }
+    return r;
+  };
+  const Run inline_run = run(false), background_run = run(true);
+  ASSERT_EQ(inline_run.frames.size(), background_run.frames.size());
+  int fused = 0;
+  for (size_t i = 0; i < inline_run.frames.size(); ++i) {
+    const ThermalFrameRecord& a = inline_run.frames[i];
+    const ThermalFrameRecord& b = background_run.frames[i];
+    fused += a.status == ThermalFrameStatus::kFused;
+    auto fields = [](const ThermalFrameRecord& r) {
+      return std::make_tuple(r.index, r.timestamp_s, r.status, r.frame_confidence, r.rays, r.hits, r.fused,
+                             r.low_confidence, r.no_normal, r.depth_edge, r.occluded, r.live_depth,
+                             r.no_surface_temperature, r.mean_confidence, r.regions_updated, r.pair_rays,
+                             r.pair_shift_px, r.reference_rays, r.offset_estimated, r.offset_correction_k,
+                             r.pixel_offset_rms_k);
+    };
+    EXPECT_TRUE(fields(a) == fields(b)) << "frame " << i;
+  }
+  EXPECT_GE(fused, 4);
+  auto same = [](const auto& x, const auto& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+  };
+  for (size_t m = 0; m < inline_run.estimates.size(); ++m) {
+    const PointTemperatures& a = inline_run.estimates[m];
+    const PointTemperatures& b = background_run.estimates[m];
+    EXPECT_TRUE(same(a.surface_c, b.surface_c)) << m;
+    EXPECT_TRUE(same(a.apparent_c, b.apparent_c)) << m;
+    EXPECT_TRUE(same(a.confidence, b.confidence)) << m;
+    EXPECT_TRUE(same(a.std_c, b.std_c)) << m;
+    EXPECT_TRUE(same(a.footprint_m, b.footprint_m)) << m;
+    EXPECT_TRUE(same(a.view_m, b.view_m)) << m;
+    EXPECT_TRUE(same(a.views, b.views)) << m;
+  }
 }
 
 TEST(ThermalFusionWindowTest, CheckNamesTheField) {

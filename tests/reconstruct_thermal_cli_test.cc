@@ -205,6 +205,36 @@ TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
   EXPECT_LE(observed1, observed0);
 }
 
+// --thermal-background (on by default): each fused thermal frame's shading and splatting run
+// beside the depth pipeline — here tracking and integrating the next frames — and give the
+// same model, trajectory and per-frame records as inline (0), byte for byte.
+TEST(ReconstructThermalCli, TheBackgroundStageGivesTheSameModel) {
+  const std::string base = "reconstruct " + ThermalScan().string() + " --start-at-groundtruth --voxel-size 0.01";
+  const fs::path inline_out = FreshPath("inline"), background_out = FreshPath("background");
+  const Result r0 = Heatwave(base + " --out " + inline_out.string() + " --thermal-background 0");
+  ASSERT_EQ(r0.exit_code, 0) << r0.output;
+  const Result r = Heatwave(base + " --out " + background_out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r0.output.find("beside the depth pipeline"), std::string::npos) << r0.output;
+  EXPECT_NE(r.output.find("beside the depth pipeline"), std::string::npos) << r.output;
+  EXPECT_EQ(Read(inline_out / "model.ply"), Read(background_out / "model.ply"));
+  EXPECT_EQ(Read(inline_out / "trajectory.txt"), Read(background_out / "trajectory.txt"));
+  const nlohmann::json j0 = nlohmann::json::parse(Read(inline_out / "reconstruct.json"))["thermal"];
+  const nlohmann::json j = nlohmann::json::parse(Read(background_out / "reconstruct.json"))["thermal"];
+  EXPECT_FALSE(j0["settings"]["background"].get<bool>());
+  EXPECT_TRUE(j["settings"]["background"].get<bool>());
+  EXPECT_EQ(j0["summary"], j["summary"]);
+  ASSERT_EQ(j0["frames"].size(), j["frames"].size());
+  int fused = 0;
+  for (size_t i = 0; i < j["frames"].size(); ++i) {
+    nlohmann::json a = j0["frames"][i], b = j["frames"][i];
+    fused += a["status"] == "fused";
+    for (nlohmann::json* f : {&a, &b}) f->erase("raycast_ms"), f->erase("fuse_ms");
+    EXPECT_EQ(a, b) << "frame " << i;
+  }
+  EXPECT_GE(fused, 5);
+}
+
 TEST(ReconstructThermalCli, ScanWithoutThermalFramesWarnsAndWritesNoTemperature) {
   // A rig with a thermal camera whose stream was not recorded.
   const fs::path scan = CopyOfThermalScan("no-thermal-frames");
