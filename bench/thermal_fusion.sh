@@ -20,7 +20,7 @@
 #                view cap (--thermal-max-views 0): the fusion as the table's first run had it
 #   NAME-iS      any of the above with --thermal-frame-interval S: only the most confident
 #                thermal frame of each S seconds fused (e.g. rig-i0 every frame, gt-poses-i0.3)
-#   NAME-b0      any of the above with --thermal-background 0: each fused frame's shading and
+#   NAME-b0      any of the above with --no-thermal-background: each fused frame's shading and
 #                splatting inline instead of beside the depth pipeline (e.g. rig-b0)
 # With --baseline BIN (an earlier build's heatwave), each config also runs with BIN right
 # before this build's run, as NAME@base: the two builds side by side on the same input, in
@@ -96,7 +96,7 @@ for scan in $scans; do
     if [[ $base =~ ^(.*)-b0$ ]]; then
       base=${BASH_REMATCH[1]}
       background=0
-      args+=(--thermal-background 0)
+      args+=(--no-thermal-background)
     fi
     if [[ $base =~ ^(.*)-i([0-9.]+)$ ]]; then
       base=${BASH_REMATCH[1]}
@@ -129,9 +129,9 @@ t = d.get("thermal")
 if t is None:
     print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 10)
     sys.exit()
-# Frames/s of the whole pipeline: the caller's time in depth processing, thermal fusion (a
-# stage running beside it, --thermal-background, counts where the caller waits for it) and
-# the offline estimate, per depth frame; decoding the frames excluded.
+# Frames/s of the whole pipeline: the caller's time in depth processing, thermal fusion (the
+# stage beside it, ThermalFusionOptions::background, counts where the caller waits for it)
+# and the offline estimate, per depth frame; decoding the frames excluded.
 total_s = d["timings"]["process_s"] + t["timings"]["fusion_s"] + t["timings"]["offline_s"]
 fps_all = frames / total_s
 ms = t["timings"]["mean_raycast_ms"] + t["timings"]["mean_fuse_ms"]

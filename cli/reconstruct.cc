@@ -709,10 +709,9 @@ int RunReconstruct(int argc, char** argv) {
                  "each window this long (s), skipping the others: a 30 Hz camera's consecutive frames are "
                  "nearly the same view, and each costs a raycast; 0: every frame, [0, 1]")
       ->capture_default_str();
-  app.add_option("--thermal-background", t.background,
-                 "with --thermal-frame-interval > 0, shade and splat each fused thermal frame on a thread of "
-                 "its own while the depth pipeline goes on (the same model either way)")
-      ->capture_default_str();
+  app.add_flag_callback("--no-thermal-background", [&t] { t.background = false; },
+                        "shade and splat each fused thermal frame inline, not on a thread of its own beside the "
+                        "depth pipeline (with --thermal-frame-interval > 0; the same model either way)");
   app.add_option("--thermal-vignetting", t.vignetting,
                  "thermal radiance lost at the image corners after the camera's own calibration "
                  "(pixels read L (1 - v r^2)), corrected before fusion; 0: none")

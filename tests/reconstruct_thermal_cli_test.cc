@@ -205,13 +205,13 @@ TEST(ReconstructThermalCli, FrameIntervalFusesOneFrameInEachWindow) {
   EXPECT_LE(observed1, observed0);
 }
 
-// --thermal-background (on by default): each fused thermal frame's shading and splatting run
+// The background stage (on by default; --no-thermal-background): each fused thermal frame's shading and splatting run
 // beside the depth pipeline — here tracking and integrating the next frames — and give the
-// same model, trajectory and per-frame records as inline (0), byte for byte.
+// same model, trajectory and per-frame records as inline, byte for byte.
 TEST(ReconstructThermalCli, TheBackgroundStageGivesTheSameModel) {
   const std::string base = "reconstruct " + ThermalScan().string() + " --start-at-groundtruth --voxel-size 0.01";
   const fs::path inline_out = FreshPath("inline"), background_out = FreshPath("background");
-  const Result r0 = Heatwave(base + " --out " + inline_out.string() + " --thermal-background 0");
+  const Result r0 = Heatwave(base + " --out " + inline_out.string() + " --no-thermal-background");
   ASSERT_EQ(r0.exit_code, 0) << r0.output;
   const Result r = Heatwave(base + " --out " + background_out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
