@@ -286,6 +286,12 @@ TEST(ReconstructCli, TumSequenceWithRigOption) {
 }
 
 TEST(ReconstructCli, BadOptionsAreExit2) {
+  // Bool values: true, false, 1 or 0, nothing else.
+  for (const char* bad : {" --integrate-between-raycasts 2", " --integrate-between-raycasts -1",
+                          " --photometric-offset yes", " --photometric-offset 2"}) {
+    const Result b = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() + bad);
+    EXPECT_EQ(b.exit_code, 2) << bad << ": " << b.output;
+  }
   const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                             " --voxel-size 0");
   EXPECT_EQ(r.exit_code, 2) << r.output;
