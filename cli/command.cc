@@ -34,7 +34,23 @@ void AddCommonOptions(CLI::App& app, CommonOptions& options) {
   app.add_flag("-q,--quiet", options.quiet, "no progress bar and no summary");
 }
 
+namespace {
+
+// A bool option's value must be true, false, 1 or 0: CLI11 alone reads any number as a bool
+// (2 and -1 were accepted). Flags (no value) are untouched.
+void CheckBoolValues(CLI::App& app) {
+  for (CLI::Option* option : app.get_options()) {
+    if (option->get_type_name() == "BOOLEAN" && option->get_expected_min() > 0) {
+      option->check(CLI::IsMember({"true", "false", "1", "0"}));
+    }
+  }
+  for (CLI::App* sub : app.get_subcommands({})) CheckBoolValues(*sub);
+}
+
+}  // namespace
+
 int Parse(CLI::App& app, int argc, char** argv) {
+  CheckBoolValues(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {

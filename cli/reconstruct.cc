@@ -593,14 +593,11 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();
   bool no_colour = false;
   app.add_flag("--no-colour", no_colour, "do not paint the model with the rgb stream");
-  // A bool option's value: CLI11 alone reads any number as one (2 and -1 were accepted).
-  const CLI::IsMember kBoolValue({"true", "false", "1", "0"});
   app.add_option("--photometric-weight", r.icp.photometric_weight,
                  "weight of ICP's colour term, m per grey level (0: geometry only)")->capture_default_str();
   app.add_option("--photometric-offset", r.icp.photometric_offset,
                  "estimate a brightness offset between the model's grey levels and the frame's in ICP's colour "
                  "term (auto exposure): true or false")
-      ->check(kBoolValue)
       ->capture_default_str();
   app.add_option("--icp-noise-depth", r.icp.noise_reference_depth_m,
                  "ICP residuals of a point at depth z count (this / z)x: depth noise grows with distance, m "
@@ -631,7 +628,6 @@ int RunReconstruct(int argc, char** argv) {
                  "integrate the depth of the frames tracked between two raycasts too (false: only of the "
                  "frames after which the model is raycast and of those as far as the reuse limits from the last "
                  "integrated one; the others still get a pose): true or false")
-      ->check(kBoolValue)
       ->capture_default_str();
   app.add_option("--dynamic-margin", r.dynamic.margin_m,
                  "depth this far (m, or dynamic fraction of its depth if more) in front of the model it was "

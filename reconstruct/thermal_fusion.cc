@@ -457,10 +457,7 @@ const ThermalFrameRecord& ThermalFusion::AddFrame(const TsdfVolume& volume, cons
   // A frame past the current window closes it (first, so that this frame's confidence
   // reads the range of the frame fused now).
   const double interval_s = m.options.frame_interval_s;
-  if (m.held && !(frame.timestamp_s < m.window_start_s + interval_s)) {
-    m.Fuse(volume, *m.held);  // in the background: no wait here
-    m.held.reset();
-  }
+  if (m.held && !(frame.timestamp_s < m.window_start_s + interval_s)) m.CloseWindow(volume);
   const double operating = OperatingConfidence(record.time_since_ffc_s, false, m.options.confidence);
   record.frame_confidence = m.FrameConfidence(linear_velocity_mps, angular_velocity_radps, operating);
   Impl::HeldFrame candidate{m.frames.size() - 1, m.previous_image, world_from_thermal, linear_velocity_mps,
@@ -568,11 +565,14 @@ void ThermalFusion::Impl::Wait() {
   frames[background_index] = background_record;
 }
 
+void ThermalFusion::Impl::CloseWindow(const TsdfVolume& volume) {
+  if (held) Fuse(volume, *held);
+  held.reset();
+}
+
 void ThermalFusion::Flush(const TsdfVolume& volume) {
-  Impl& m = *impl_;
-  if (m.held) m.Fuse(volume, *m.held);
-  m.held.reset();
-  m.Wait();
+  impl_->CloseWindow(volume);
+  impl_->Wait();
 }
 
 void ThermalFusion::Finish() {
@@ -697,20 +697,25 @@ PointTemperatures ThermalFusion::Sample(const std::vector<Eigen::Vector3f>& poin
 
 const std::vector<ThermalFrameRecord>& ThermalFusion::frames() const {
   impl_->Wait();
-  return impl_->frames; }
+  return impl_->frames;
+}
 const ThermalFusionOptions& ThermalFusion::options() const { return impl_->options; }
 size_t ThermalFusion::NumRegions() const {
   impl_->Wait();
-  return impl_->regions.size(); }
+  return impl_->regions.size();
+}
 size_t ThermalFusion::NumObservations() const {
   impl_->Wait();
-  return impl_->num_records; }
+  return impl_->num_records;
+}
 size_t ThermalFusion::NumObservationsDropped() const {
   impl_->Wait();
-  return impl_->records_dropped; }
+  return impl_->records_dropped;
+}
 int64_t ThermalFusion::OfflineRejected() const {
   impl_->Wait();
-  return impl_->offline_rejected; }
+  return impl_->offline_rejected;
+}
 
 size_t ThermalFusion::MemoryBytes() const {
   impl_->Wait();

@@ -293,6 +293,8 @@ struct ThermalFusion::Impl {
   // options.background (and frame_interval_s > 0) everything after the raycast runs on a
   // thread of its own until Wait(); the next Fuse waits for it first.
   void Fuse(const TsdfVolume& volume, const HeldFrame& frame);
+  // Fuses the held frame, if any (its stage may run on in the background), and ends the window.
+  void CloseWindow(const TsdfVolume& volume);
   // Waits for the background stage, if one runs, and stores its record; rethrows what it
   // threw. Every public call that reads or changes the regions or the records calls it.
   void Wait();
