@@ -2,7 +2,11 @@
 // heatwave scan's depth frames, for bench/reconstruct_peers.sh.
 //
 //   OMP_WAIT_POLICY=PASSIVE build/bench/bench_open3d_reconstruct SCAN --out traj.txt
-//       [--voxel-size 0.005] [--truncation 0.02] [--summary summary.json]
+//       [--voxel-size 0.005] [--truncation 0.02] [--summary summary.json] [--poses TUM]
+//
+// With --poses (bench/scale.sh) each frame is integrated at its pose in the trajectory
+// (interpolated at the frame's time; frames outside it skipped) and nothing is tracked or
+// raycast: Open3D's fusion alone, for its time and memory beside heatwave's on the same poses.
 //
 // The loop is Open3D's own dense SLAM (examples/python/t_reconstruction_system/dense_slam.py,
 // t::pipelines::slam::Model) assembled from its pieces, because Model::TrackFrameToModel goes
@@ -27,6 +31,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <optional>
 #include <vector>
 
 #include <open3d/core/EigenConverter.h>
@@ -38,6 +43,7 @@
 
 #include "bench/peer_common.h"
 #include "core/error.h"
+#include "core/trajectory.h"
 
 namespace {
 
@@ -110,10 +116,23 @@ int main(int argc, char** argv) {
     Pyramid model;  // raycast of the model at the previous pose
     bool have_model = false;
     int fused = 0;
+    std::optional<hw::core::Trajectory> given;
+    if (!options.poses.empty()) given = hw::core::ReadTumTrajectory(options.poses);
     for (int i = 0; i < frames.size(); ++i) {
       if (!frames.Exists(i)) {
         ++result.skipped_frames;
         continue;
+      }
+      std::optional<hw::core::Rigid3d> given_pose;
+      if (given) {
+        given_pose = given->At(frames.Timestamp(i));
+        if (!given_pose) {
+          ++result.skipped_frames;
+          continue;
+        }
+        world_from_depth.setIdentity();
+        world_from_depth.topLeftCorner<3, 3>() = given_pose->rotation.toRotationMatrix();
+        world_from_depth.topRightCorner<3, 1>() = given_pose->translation;
       }
       decode.Start();
       const cv::Mat depth_m = frames.Load(i);
@@ -128,7 +147,7 @@ int main(int argc, char** argv) {
       const o3g::Image depth_nan = depth.ClipTransform(1.0f, depth_min, depth_max, NAN);
 
       track_timer.Start();
-      if (have_model) {
+      if (have_model && !given) {
         // Source pyramid: the frame; target: the model raycast. The result maps source to
         // target, i.e. previous_from_current.
         std::vector<o3c::Tensor> source_vertex(levels);
@@ -165,6 +184,12 @@ int main(int argc, char** argv) {
       ++fused;
       integrate_timer.Stop();
 
+      if (given) {  // nothing to track against
+        loop.Stop();
+        trajectory.Add(frames.Timestamp(i), *given_pose);
+        ++result.frames;
+        continue;
+      }
       // Model raycast at this pose, for tracking the next frame.
       raycast_timer.Start();
       const float weight_threshold = std::min(static_cast<float>(fused - 1), 3.0f);

@@ -4,16 +4,19 @@
 // (makeVolume(VolumeType::HASHTSDF, ...)) integrating every frame at its tracked pose.
 //
 //   build/bench/bench_opencv_kinfu_reconstruct SCAN --out traj.txt
-//       [--voxel-size 0.005] [--truncation 0.02] [--summary summary.json]
+//       [--voxel-size 0.005] [--truncation 0.02] [--summary summary.json] [--poses TUM]
 //
 // Odometry settings are FastICPOdometry's defaults (max depth difference 0.07 m, normal
 // angle 30°, bilateral sigma 0.04 m / 4.5 px, kernel 7, its default iteration counts); the
 // volume has heatwave's voxel size, truncation, depth range and weight cap (64). No raycast
 // per frame: frame-to-frame odometry does not need one. A frame whose odometry fails
 // (compute() returns false) keeps the previous pose, is counted and is still fused, which is
-// what a plain frame-to-frame loop does.
+// what a plain frame-to-frame loop does. With --poses (bench/scale.sh) each frame is
+// integrated at its pose in the trajectory (interpolated at the frame's time; frames outside
+// it skipped) and nothing is tracked: the volume alone, beside heatwave's on the same poses.
 #include <cstdio>
 #include <exception>
+#include <optional>
 
 #include <opencv2/core/affine.hpp>
 #include <opencv2/rgbd.hpp>
@@ -21,6 +24,7 @@
 
 #include "bench/peer_common.h"
 #include "core/error.h"
+#include "core/trajectory.h"
 
 namespace {
 
@@ -51,10 +55,27 @@ int main(int argc, char** argv) {
     hw::bench::LoopTimer loop, decode, track_timer, integrate_timer;
     cv::Affine3d world_from_depth = cv::Affine3d::Identity();
     cv::Ptr<cv::rgbd::OdometryFrame> previous;
+    std::optional<hw::core::Trajectory> given;
+    if (!options.poses.empty()) given = hw::core::ReadTumTrajectory(options.poses);
     for (int i = 0; i < frames.size(); ++i) {
       if (!frames.Exists(i)) {
         ++result.skipped_frames;
         continue;
+      }
+      if (given) {
+        const std::optional<hw::core::Rigid3d> pose = given->At(frames.Timestamp(i));
+        if (!pose) {
+          ++result.skipped_frames;
+          continue;
+        }
+        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+        m.topLeftCorner<3, 3>() = pose->rotation.toRotationMatrix();
+        m.topRightCorner<3, 1>() = pose->translation;
+        cv::Matx44d cv_m;
+        for (int r = 0; r < 4; ++r) {
+          for (int c = 0; c < 4; ++c) cv_m(r, c) = m(r, c);
+        }
+        world_from_depth = cv::Affine3d(cv_m);
       }
       decode.Start();
       const cv::Mat depth_m = frames.Load(i);
@@ -62,10 +83,12 @@ int main(int argc, char** argv) {
 
       loop.Start();
       track_timer.Start();
-      cv::Ptr<cv::rgbd::OdometryFrame> current =
-          cv::rgbd::OdometryFrame::create(cv::Mat(), depth_m);
-      // Pyramids, normals and masks once per frame: as source now, as destination next time.
-      odometry->prepareFrameCache(current, cv::rgbd::OdometryFrame::CACHE_ALL);
+      cv::Ptr<cv::rgbd::OdometryFrame> current;
+      if (!given) {
+        current = cv::rgbd::OdometryFrame::create(cv::Mat(), depth_m);
+        // Pyramids, normals and masks once per frame: as source now, as destination next time.
+        odometry->prepareFrameCache(current, cv::rgbd::OdometryFrame::CACHE_ALL);
+      }
       if (previous) {
         // Rt maps points of the source (current) frame into the destination (previous) one:
         // previous_from_current.

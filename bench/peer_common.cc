@@ -67,6 +67,9 @@ PeerOptions ParsePeerOptions(int argc, char** argv, const std::string& what) {
       ->capture_default_str();
   app.add_option("--frames", options.max_frames, "process at most this many frames, 0: all")
       ->capture_default_str();
+  std::string poses;
+  app.add_option("--poses", poses,
+                 "fuse along this TUM trajectory (world_from_depth) instead of tracking: integration only");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -75,6 +78,7 @@ PeerOptions ParsePeerOptions(int argc, char** argv, const std::string& what) {
   options.scan = scan;
   options.trajectory = trajectory;
   options.summary = summary;
+  options.poses = poses;
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::fprintf(stderr, "%s\n", problem.c_str());
     std::exit(2);

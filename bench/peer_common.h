@@ -29,6 +29,9 @@ struct PeerOptions {
   double min_depth_m = 0.3;           // depth pixels nearer are dropped, m, >= 0
   double max_depth_m = 4.0;           // ... farther are dropped, m, > min_depth_m
   int max_frames = 0;                 // process at most this many depth frames, 0: all
+  // TUM trajectory (world_from_depth, e.g. groundtruth.txt) to fuse along instead of
+  // tracking: only integration runs (empty: track, as the peer's own loop does).
+  std::filesystem::path poses;
 
   std::string Check() const;  // "" when valid, else names the field, value and constraint
 };
