@@ -419,6 +419,10 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.area_m2 = mesh.AreaM2();
   r.blocks = reconstruction.volume().NumBlocks();
   r.volume_bytes = reconstruction.volume().MemoryBytes();
+  // Nothing reads the volume after the mesh (the temperatures are the thermal fusion's own
+  // regions): its memory goes back before the evaluation and the output, which would
+  // otherwise add to it at the peak (README, Scale).
+  reconstruction.ReleaseVolume();
 
   if (scan.groundtruth() && reconstruction.trajectory().size() >= 3) {
     try {

@@ -171,6 +171,7 @@ core::Rigid3d Reconstruction::PoseAt(double timestamp_s) const {
 }
 
 const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
+  assert(!volume_released_ && "Reconstruction::AddFrame after ReleaseVolume");
   if (frame.depth_m.type() != CV_32FC1 || frame.depth_m.cols != rig_.depth.width ||
       frame.depth_m.rows != rig_.depth.height) {
     throw std::invalid_argument(core::StringPrintf(
@@ -747,6 +748,11 @@ ModelPyramid Reconstruction::CastModelView(const core::Rigid3d& world_from_depth
 
 TriangleMesh Reconstruction::ExtractMesh(MeshStats* stats) const {
   return reconstruct::ExtractMesh(volume_, options_.mesh, stats);
+}
+
+void Reconstruction::ReleaseVolume() {
+  volume_ = TsdfVolume(options_.tsdf);
+  volume_released_ = true;
 }
 
 }  // namespace hw::reconstruct

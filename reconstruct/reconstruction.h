@@ -270,6 +270,10 @@ class Reconstruction {
 
   // Marching cubes of the volume (options().mesh).
   TriangleMesh ExtractMesh(MeshStats* stats = nullptr) const;
+  // Frees the volume's blocks — most of a large scan's memory — once the mesh is extracted:
+  // volume() is empty afterwards (the trajectory and the frame records stay). Call after the
+  // last AddFrame: AddFrame asserts that it was not called.
+  void ReleaseVolume();
 
  private:
   // Tracks the frame (from `start`, the pre-aligned prediction, when not lost; relocalises
@@ -310,6 +314,7 @@ class Reconstruction {
   cv::Mat depth_offset_map_;
   Undistorter rgb_undistorter_;
   TsdfVolume volume_;
+  bool volume_released_ = false;  // ReleaseVolume
   core::Trajectory trajectory_;
   std::vector<FrameRecord> frames_;
   std::optional<core::Rigid3d> initial_pose_;
