@@ -43,7 +43,6 @@
 
 #include "bench/peer_common.h"
 #include "core/error.h"
-#include "core/trajectory.h"
 
 namespace {
 
@@ -116,23 +115,19 @@ int main(int argc, char** argv) {
     Pyramid model;  // raycast of the model at the previous pose
     bool have_model = false;
     int fused = 0;
-    std::optional<hw::core::Trajectory> given;
-    if (!options.poses.empty()) given = hw::core::ReadTumTrajectory(options.poses);
+    const std::optional<hw::core::Trajectory> given = hw::bench::ReadGivenPoses(options);
     for (int i = 0; i < frames.size(); ++i) {
       if (!frames.Exists(i)) {
         ++result.skipped_frames;
         continue;
       }
-      std::optional<hw::core::Rigid3d> given_pose;
       if (given) {
-        given_pose = given->At(frames.Timestamp(i));
-        if (!given_pose) {
+        const std::optional<Eigen::Matrix4d> pose = hw::bench::GivenPoseAt(*given, frames.Timestamp(i));
+        if (!pose) {
           ++result.skipped_frames;
           continue;
         }
-        world_from_depth.setIdentity();
-        world_from_depth.topLeftCorner<3, 3>() = given_pose->rotation.toRotationMatrix();
-        world_from_depth.topRightCorner<3, 1>() = given_pose->translation;
+        world_from_depth = *pose;
       }
       decode.Start();
       const cv::Mat depth_m = frames.Load(i);
@@ -186,7 +181,7 @@ int main(int argc, char** argv) {
 
       if (given) {  // nothing to track against
         loop.Stop();
-        trajectory.Add(frames.Timestamp(i), *given_pose);
+        trajectory.Add(frames.Timestamp(i), hw::core::Rigid3d::FromMatrix(world_from_depth.topRows<3>()));
         ++result.frames;
         continue;
       }

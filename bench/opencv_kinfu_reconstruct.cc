@@ -24,7 +24,6 @@
 
 #include "bench/peer_common.h"
 #include "core/error.h"
-#include "core/trajectory.h"
 
 namespace {
 
@@ -55,27 +54,23 @@ int main(int argc, char** argv) {
     hw::bench::LoopTimer loop, decode, track_timer, integrate_timer;
     cv::Affine3d world_from_depth = cv::Affine3d::Identity();
     cv::Ptr<cv::rgbd::OdometryFrame> previous;
-    std::optional<hw::core::Trajectory> given;
-    if (!options.poses.empty()) given = hw::core::ReadTumTrajectory(options.poses);
+    const std::optional<hw::core::Trajectory> given = hw::bench::ReadGivenPoses(options);
     for (int i = 0; i < frames.size(); ++i) {
       if (!frames.Exists(i)) {
         ++result.skipped_frames;
         continue;
       }
       if (given) {
-        const std::optional<hw::core::Rigid3d> pose = given->At(frames.Timestamp(i));
+        const std::optional<Eigen::Matrix4d> pose = hw::bench::GivenPoseAt(*given, frames.Timestamp(i));
         if (!pose) {
           ++result.skipped_frames;
           continue;
         }
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.topLeftCorner<3, 3>() = pose->rotation.toRotationMatrix();
-        m.topRightCorner<3, 1>() = pose->translation;
-        cv::Matx44d cv_m;
+        cv::Matx44d m;
         for (int r = 0; r < 4; ++r) {
-          for (int c = 0; c < 4; ++c) cv_m(r, c) = m(r, c);
+          for (int c = 0; c < 4; ++c) m(r, c) = (*pose)(r, c);
         }
-        world_from_depth = cv::Affine3d(cv_m);
+        world_from_depth = cv::Affine3d(m);
       }
       decode.Start();
       const cv::Mat depth_m = frames.Load(i);

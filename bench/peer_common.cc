@@ -195,4 +195,18 @@ int RunHarness(const char* peer, const std::function<int()>& body) {
   return 1;
 }
 
+std::optional<core::Trajectory> ReadGivenPoses(const PeerOptions& options) {
+  if (options.poses.empty()) return std::nullopt;
+  return core::ReadTumTrajectory(options.poses);
+}
+
+std::optional<Eigen::Matrix4d> GivenPoseAt(const core::Trajectory& poses, double timestamp_s) {
+  const std::optional<core::Rigid3d> pose = poses.At(timestamp_s);
+  if (!pose) return std::nullopt;
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = pose->rotation.toRotationMatrix();
+  m.topRightCorner<3, 1>() = pose->translation;
+  return m;
+}
+
 }  // namespace hw::bench

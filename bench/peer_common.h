@@ -8,6 +8,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -87,6 +88,12 @@ class LoopTimer {
 
 // Peak resident memory of this process so far, MiB (getrusage ru_maxrss).
 double PeakRssMb();
+
+// PeerOptions::poses read once (nullopt when none was given), and a frame's world_from_depth
+// in them as a 4×4 matrix: interpolated at its time, nullopt outside the trajectory (the
+// harness skips the frame). Throws core::InputError for an unreadable file.
+std::optional<core::Trajectory> ReadGivenPoses(const PeerOptions& options);
+std::optional<Eigen::Matrix4d> GivenPoseAt(const core::Trajectory& poses, double timestamp_s);
 
 // What a harness run measured.
 struct PeerResult {
