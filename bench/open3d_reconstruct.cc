@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
       const o3g::Image depth_nan = depth.ClipTransform(1.0f, depth_min, depth_max, NAN);
 
       track_timer.Start();
-      if (have_model && !given) {
+      if (have_model) {  // never with given poses: nothing is raycast then
         // Source pyramid: the frame; target: the model raycast. The result maps source to
         // target, i.e. previous_from_current.
         std::vector<o3c::Tensor> source_vertex(levels);

@@ -153,6 +153,9 @@ double PeakRssMb() {
 
 void WriteResults(const PeerOptions& options, const core::Trajectory& trajectory,
                   const PeerResult& result) {
+  if (!options.poses.empty() && result.frames == 0) {
+    throw core::InputError(options.poses, "no depth frame of the scan lies within these poses");
+  }
   core::WriteTumTrajectory(options.trajectory, trajectory);
   char line[512];
   std::snprintf(line, sizeof line,
@@ -197,7 +200,9 @@ int RunHarness(const char* peer, const std::function<int()>& body) {
 
 std::optional<core::Trajectory> ReadGivenPoses(const PeerOptions& options) {
   if (options.poses.empty()) return std::nullopt;
-  return core::ReadTumTrajectory(options.poses);
+  core::Trajectory poses = core::ReadTumTrajectory(options.poses);
+  if (poses.empty()) throw core::InputError(options.poses, "holds no pose");
+  return poses;
 }
 
 std::optional<Eigen::Matrix4d> GivenPoseAt(const core::Trajectory& poses, double timestamp_s) {

@@ -91,7 +91,8 @@ double PeakRssMb();
 
 // PeerOptions::poses read once (nullopt when none was given), and a frame's world_from_depth
 // in them as a 4×4 matrix: interpolated at its time, nullopt outside the trajectory (the
-// harness skips the frame). Throws core::InputError for an unreadable file.
+// harness skips the frame). Throws core::InputError for an unreadable or empty file
+// (WriteResults, when no frame lay within the poses).
 std::optional<core::Trajectory> ReadGivenPoses(const PeerOptions& options);
 std::optional<Eigen::Matrix4d> GivenPoseAt(const core::Trajectory& poses, double timestamp_s);
 
@@ -110,7 +111,8 @@ struct PeerResult {
 };
 
 // Writes the trajectory (TUM) and, when options.summary is set, the JSON summary, and
-// prints the one-line result on stdout. Throws core::OutputError.
+// prints the one-line result on stdout. Throws core::OutputError, and core::InputError
+// (naming options.poses) when poses were given and no frame lay within them.
 void WriteResults(const PeerOptions& options, const core::Trajectory& trajectory,
                   const PeerResult& result);
 
