@@ -9,7 +9,7 @@
 // SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
 // fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
 // Prints one line per frame and the median and mean of each column. --dump writes the final
-// volume (every block sorted by key: 3 int32 key, then its 512 voxels as stored, 12 bytes
+// volume (every block sorted by key: 3 int32 key, then its 512 voxels as stored, 8 bytes
 // each) so that two builds' volumes can be compared voxel by voxel. --thermal (scans with a
 // thermal camera) then raycasts the final volume from every frame's thermal pose (depth pose
 // composed with depth_from_thermal), through the lens model (CameraRays) and through its

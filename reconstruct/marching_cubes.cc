@@ -169,10 +169,10 @@ struct VoxelCache {
       for (int x = x0; x <= x1; ++x, ++c) {
         const Voxel* v = row[which[x]];
         if (v != nullptr) v += local[x];
-        if (v != nullptr && v->weight >= threshold) {
+        if (v != nullptr && v->weight() >= threshold) {
           voxel[c] = v;
-          sdf[c] = v->sdf;
-          const bool negative = v->sdf < 0;
+          sdf[c] = v->sdf();
+          const bool negative = v->sdf_steps < 0;
           code[c] = negative ? kInside : kOutside;
           inside |= negative;
           outside |= !negative;

@@ -118,7 +118,7 @@ struct FrameParams {
   TsdfOptions::NoiseBand band;  // the band at a reading's depth: band.At(d)
   float edge_slope_per_m;
   float max_weight;
-  const float* inv_count;  // 1 / (w + 1) for whole weights 0 … max_weight
+  const float* inv_count;  // 1 / (w + 1) for the weights 0 … max_weight
   // Colour (colour_rgb null: none).
   const std::uint8_t* colour_rgb;
   size_t colour_step;  // bytes per row
@@ -186,11 +186,9 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
     const float sdf_m = d - pz;
     if (sdf_m < -band_m) continue;  // hidden behind the surface: unknown
     const float tsdf = std::min(1.0f, sdf_m * (1.0f / band_m));
-    const float w = voxel->weight;
-    const int wi = static_cast<int>(w);  // only a fractional max_weight is not whole
-    const float inv = static_cast<float>(wi) == w ? f.inv_count[wi] : 1.0f / (w + 1);
-    voxel->sdf = (voxel->sdf * w + tsdf) * inv;
-    voxel->weight = std::min(w + 1, f.max_weight);
+    const float w = voxel->weight();
+    voxel->set_sdf((voxel->sdf() * w + tsdf) * f.inv_count[voxel->weight_count]);
+    voxel->set_weight(std::min(w + 1, f.max_weight));
     ++count;
     if (f.colour_rgb == nullptr || sdf_m >= band_m) continue;
     const float* r = f.colour_rotation;
@@ -261,9 +259,10 @@ int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_cam
 
 // UpdateRowScalar on the 8 voxels at once (AVX2; the binary stays portable: called only
 // where the CPU has it). Same operations in the same order, no FMA (the target has none, so
-// the compiler cannot contract a·b + c): the same bits as the scalar row. The 8 voxels (96
-// bytes, AoS) are loaded as three registers, split into sdf / weight / colour word and
-// merged back with blends and permutes, and stored whole (lanes not updated keep their bits).
+// the compiler cannot contract a·b + c): the same bits as the scalar row. The 8 voxels (64
+// bytes, AoS) are loaded as two registers, split into distance words (sdf steps and weight)
+// and colour words, merged back with unpacks and permutes, and stored whole (lanes not
+// updated keep their bits).
 __attribute__((target("avx2"))) inline __m256 EvenLanes(__m256 lo4, __m256 hi4) {
   // [l0 r0 l1 r1 | l2 r2 l3 r3], [l4 r4 … | …] → [l0 … l7]
   return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo4, hi4, 0x88)), 0xD8));
@@ -365,19 +364,18 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
   const int updated = _mm256_movemask_ps(mask);
   if (updated == 0) return 0;
 
-  // Split the AoS row: dword k of the 24 is component k % 3 of voxel k / 3, in register
-  // k / 8 at lane k % 8. Blending the three registers gathers one component's 8 dwords in
-  // one register (lane j from the register where it holds that component), a permute puts
-  // them in voxel order.
+  // Split the AoS row: voxel k is dwords 2k (sdf steps in the low half, weight count in the
+  // high one) and 2k + 1 (colour word); the even dwords of the two registers are the first
+  // words in voxel order, the odd ones the colour words.
   float* raw = reinterpret_cast<float*>(voxel);
-  const __m256 r0 = _mm256_loadu_ps(raw), r1 = _mm256_loadu_ps(raw + 8), r2 = _mm256_loadu_ps(raw + 16);
-  const __m256i order0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
-  const __m256i order1 = _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6);
-  const __m256i order2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
-  const __m256 old_sdf = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x92), r2, 0x24), order0);
-  const __m256 weight = _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x24), r2, 0x49), order1);
-  __m256i colour_word = _mm256_castps_si256(
-      _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(r0, r1, 0x49), r2, 0x92), order2));
+  const __m256 r0 = _mm256_loadu_ps(raw), r1 = _mm256_loadu_ps(raw + 8);
+  const __m256i distance_word = _mm256_castps_si256(EvenLanes(r0, r1));
+  __m256i colour_word = _mm256_castps_si256(OddLanes(r0, r1));
+  const __m256 sdf_unit = _mm256_set1_ps(Voxel::kSdfUnit);
+  // Sign-extended steps times 2^-14 (exact), as Voxel::sdf().
+  const __m256 old_sdf = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srai_epi32(_mm256_slli_epi32(distance_word, 16), 16)),
+                                       _mm256_set1_ps(1.0f / Voxel::kSdfUnit));
+  const __m256 weight = _mm256_cvtepi32_ps(_mm256_srli_epi32(distance_word, 16));
 
   const __m256 unit = _mm256_set1_ps(1.0f);
   const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf_m, _mm256_div_ps(unit, band)), unit);
@@ -386,8 +384,13 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
   const __m256 inv = _mm256_div_ps(unit, weight_1);
   const __m256 new_sdf = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(old_sdf, weight), tsdf), inv);
   const __m256 new_weight = _mm256_min_ps(weight_1, _mm256_set1_ps(f.max_weight));
-  const __m256 sdf_out = _mm256_blendv_ps(old_sdf, new_sdf, mask);
-  const __m256 weight_out = _mm256_blendv_ps(weight, new_weight, mask);
+  // Voxel::set_sdf and set_weight: clamped to ±1 band, rounded to the nearest step (the
+  // conversion rounds as std::lrint does, to nearest even); the weight is whole.
+  const __m256 scaled = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(new_sdf, sdf_unit), _mm256_sub_ps(zero, sdf_unit)), sdf_unit);
+  const __m256i packed = _mm256_or_si256(_mm256_and_si256(_mm256_cvtps_epi32(scaled), _mm256_set1_epi32(0xffff)),
+                                         _mm256_slli_epi32(_mm256_cvttps_epi32(new_weight), 16));
+  const __m256i distance_out = _mm256_castps_si256(
+      _mm256_blendv_ps(_mm256_castsi256_ps(distance_word), _mm256_castsi256_ps(packed), mask));
 
   if (f.colour_rgb != nullptr) {
     __m256 paint = _mm256_and_ps(mask, _mm256_cmp_ps(sdf_m, band, _CMP_LT_OQ));
@@ -485,16 +488,11 @@ __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const Fr
     }
   }
 
-  // Merge back: lane j of register R holds component (j + 2R) % 3 of its voxel.
-  const __m256i back0 = _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5);
-  const __m256i back1 = _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2);
-  const __m256i back2 = _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7);
-  const __m256 a0 = _mm256_permutevar8x32_ps(sdf_out, back0);
-  const __m256 a1 = _mm256_permutevar8x32_ps(weight_out, back1);
-  const __m256 a2 = _mm256_permutevar8x32_ps(_mm256_castsi256_ps(colour_word), back2);
-  _mm256_storeu_ps(raw, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x92), a2, 0x24));
-  _mm256_storeu_ps(raw + 8, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x24), a2, 0x49));
-  _mm256_storeu_ps(raw + 16, _mm256_blend_ps(_mm256_blend_ps(a0, a1, 0x49), a2, 0x92));
+  // Merge back: voxels 0, 1 | 4, 5 and 2, 3 | 6, 7 interleaved, then their halves paired.
+  const __m256 lo = _mm256_unpacklo_ps(_mm256_castsi256_ps(distance_out), _mm256_castsi256_ps(colour_word));
+  const __m256 hi = _mm256_unpackhi_ps(_mm256_castsi256_ps(distance_out), _mm256_castsi256_ps(colour_word));
+  _mm256_storeu_ps(raw, _mm256_permute2f128_ps(lo, hi, 0x20));
+  _mm256_storeu_ps(raw + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
   return __builtin_popcount(static_cast<unsigned>(updated));
 }
 

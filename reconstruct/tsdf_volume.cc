@@ -26,7 +26,9 @@ std::string TsdfOptions::Check() const {
     return Fail("truncation_noise_sigmas", truncation_noise_sigmas, "finite and >= 0");
   }
   if (std::string m = noise.Check(); !m.empty()) return "noise." + m;
-  if (!InRange(max_weight, 1, 65535)) return Fail("max_weight", max_weight, "in [1, 65535]");
+  if (!InRange(max_weight, 1, 65535) || max_weight != std::floor(max_weight)) {
+    return Fail("max_weight", max_weight, "a whole number in [1, 65535]");
+  }
   if (!(min_depth_m >= 0) || !std::isfinite(min_depth_m)) return Fail("min_depth_m", min_depth_m, ">= 0 m");
   if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
     return Fail("max_depth_m", max_depth_m, "finite and > min_depth_m");
@@ -110,9 +112,10 @@ int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in
       if (block == nullptr) continue;
       constexpr int m = kBlockSide - 1;
       Voxel& v = block->voxels[(ix & m) + kBlockSide * ((iy & m) + kBlockSide * (iz & m))];
-      if (!(v.weight > 0)) continue;
-      v.sdf = (v.sdf * v.weight + 1.0f) / (v.weight + 1.0f);
-      v.weight = std::min(v.weight + 1.0f, max_weight);
+      if (!v.observed()) continue;
+      const float w = v.weight();
+      v.set_sdf((v.sdf() * w + 1.0f) / (w + 1.0f));
+      v.set_weight(std::min(w + 1.0f, max_weight));
       ++updated;
     }
   }
@@ -163,7 +166,7 @@ TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
     const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
     if (b == nullptr) return Status::kUnobserved;
     corners[c] = &b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
-    if (!(corners[c]->weight > 0)) return Status::kUnobserved;
+    if (!corners[c]->observed()) return Status::kUnobserved;
   }
   return Status::kOk;
 }
@@ -199,8 +202,8 @@ TsdfSampler::Status TsdfSampler::SampleAcrossBlocks(int ix, int iy, int iz, floa
     const VoxelBlock* block = b[z][y][x];
     if (block == nullptr) return Status::kUnobserved;
     const Voxel& v = block->voxels[ox[x] + oy[y] + oz[z]];
-    if (!(v.weight > 0)) return Status::kUnobserved;
-    s[c] = v.sdf;
+    if (!v.observed()) return Status::kUnobserved;
+    s[c] = v.sdf();
   }
   sdf = Trilinear(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], fx, fy, fz);
   return Status::kOk;
@@ -230,8 +233,8 @@ bool TsdfSampler::Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f&
     const Voxel* v0 = &near[0][0][0]->voxels[l0.x() + kBlockSide * (l0.y() + kBlockSide * l0.z())];
     auto fetch = [&](int x, int y, int z) {
       const Voxel& v = v0[x + kBlockSide * (y + kBlockSide * z)];
-      s[z][y][x] = v.sdf;
-      observed &= v.weight > 0;
+      s[z][y][x] = v.sdf();
+      observed &= v.observed();
     };
     for (int a = 0; a < 4; ++a) {
       for (int b = 1; b <= 2; ++b) {
@@ -257,8 +260,8 @@ bool TsdfSampler::Normal(const Eigen::Vector3f& point_in_world, Eigen::Vector3f&
       const VoxelBlock* b = near[bz[z]][by[y]][bx[x]];
       if (b == nullptr) return false;
       const Voxel& v = b->voxels[ix[x] + iy[y] + iz[z]];
-      s[z][y][x] = v.sdf;
-      return v.weight > 0;
+      s[z][y][x] = v.sdf();
+      return v.observed();
     };
     for (int a = 0; a < 4; ++a) {
       for (int b = 1; b <= 2; ++b) {

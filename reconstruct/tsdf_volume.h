@@ -47,7 +47,8 @@ struct TsdfOptions {
   double truncation_noise_sigmas = 3;    // >= 0
   DepthNoiseModel noise;  // σ_z(z), m (depth_noise.h); ICP's gate uses the same model
   // Each observation adds weight 1; the sum is capped here, so a long-observed surface still
-  // follows a changed one (a moving person, a door) after about this many frames. In [1, 65535].
+  // follows a changed one (a moving person, a door) after about this many frames. A whole
+  // number in [1, 65535] (a voxel stores its weight as a 16-bit count).
   double max_weight = 64;
   double min_depth_m = 0.3;  // depth pixels nearer than this are not fused, m, >= 0
   double max_depth_m = 4.0;  // ... farther than this, m, > min_depth_m
@@ -88,31 +89,54 @@ inline constexpr int kBlockShift = 3;
 static_assert(kBlockSide == 1 << kBlockShift);
 inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 
-// One voxel. sdf is the mean of the readings' truncated signed distances, each divided by its
-// band (truncation_m, wider for far readings: TsdfOptions::TruncationAt), in [−1, 1]
-// (positive in front of the surface, towards the cameras that saw it); weight 0 means never
-// observed (sdf and colour then meaningless).
-// colour_weight counts the observations that painted the voxel (capped at min(max_weight,
-// 255)): a voxel first seen far in front of the surface (weight > 0, no colour yet) must not
-// average its unset black into the first real colour. It fills the padding byte: a voxel
-// stays 12 bytes.
+// One voxel, 8 bytes. sdf() is the mean of the readings' truncated signed distances, each
+// divided by its band (truncation_m, wider for far readings: TsdfOptions::TruncationAt), in
+// [−1, 1] (positive in front of the surface, towards the cameras that saw it); weight() counts
+// the readings fused (capped at max_weight); 0 means never observed (sdf and colour then
+// meaningless). colour_weight counts the observations that painted the voxel (capped at
+// min(max_weight, 255)): a voxel first seen far in front of the surface (weight > 0, no colour
+// yet) must not average its unset black into the first real colour.
+//
+// Stored compactly (stop 51; 12 bytes before, float distance and weight): the distance as a
+// 16-bit fixed-point number with kSdfUnit steps per band — 2⁻¹⁴ of the band, 1.2 µm at the
+// default 2 cm, 4.7 µm at 4 m's 7.7 cm: far below the sensor's noise and the voxel — and the
+// weight as a 16-bit count (every reading adds 1, so max_weight is whole). Integration
+// touches a third less memory per voxel and the volume holds a third less (README, Scale).
+// Rounding is to nearest (even), as the SIMD kernel's conversion rounds: both write the same
+// bits.
 struct Voxel {
-  float sdf = 1.0f;
-  float weight = 0.0f;
+  static constexpr float kSdfUnit = 16384.0f;  // stored steps per band: 2^14, exact scaling
+  std::int16_t sdf_steps = 16384;              // sdf · kSdfUnit, in [−kSdfUnit, kSdfUnit]
+  std::uint16_t weight_count = 0;
   Rgb8 colour = Rgb8::Zero();
   std::uint8_t colour_weight = 0;
+
+  float sdf() const { return static_cast<float>(sdf_steps) * (1.0f / kSdfUnit); }
+  float weight() const { return static_cast<float>(weight_count); }
+  bool observed() const { return weight_count != 0; }
+  // Stores s (clamped to [−1, 1]; NaN is a bug) rounded to the nearest step.
+  void set_sdf(float s) {
+    const float scaled = std::clamp(s * kSdfUnit, -kSdfUnit, kSdfUnit);
+    // Round to nearest even by adding and removing 1.5 · 2^23 (exact below 2^22; std::lrint
+    // is a library call here).
+    constexpr float kRound = 12582912.0f;
+    sdf_steps = static_cast<std::int16_t>((scaled + kRound) - kRound);
+  }
+  // w must be whole, in [0, 65535].
+  void set_weight(float w) { weight_count = static_cast<std::uint16_t>(w); }
 };
-static_assert(sizeof(Voxel) == 12);
+static_assert(sizeof(Voxel) == 8);
 
 // Integer coordinates of a block: the block holding voxel (i, j, k) is
 // (floor(i / kBlockSide), ...). Voxel (i, j, k) has its centre at (i, j, k) · voxel_size_m
 // in the world frame.
 using BlockKey = Eigen::Vector3i;
 
-struct VoxelBlock {
-  BlockKey key;
+// Cache-line aligned, the voxels first: each row of 8 voxels (64 bytes) is one cache line.
+struct alignas(64) VoxelBlock {
   // Voxel (x, y, z) inside the block at voxels[x + kBlockSide · (y + kBlockSide · z)].
   std::array<Voxel, kBlockVoxels> voxels;
+  BlockKey key;
 };
 
 // What one Integrate() call did.
@@ -257,12 +281,12 @@ class TsdfSampler {
       const Voxel* v = &block->voxels[lx + kY * ly + kZ * lz];
       const Voxel &v000 = v[0], &v100 = v[1], &v010 = v[kY], &v110 = v[kY + 1], &v001 = v[kZ],
                   &v101 = v[kZ + 1], &v011 = v[kZ + kY], &v111 = v[kZ + kY + 1];
-      if (!((v000.weight > 0) & (v100.weight > 0) & (v010.weight > 0) & (v110.weight > 0) &
-            (v001.weight > 0) & (v101.weight > 0) & (v011.weight > 0) & (v111.weight > 0))) {
+      if (!(v000.observed() & v100.observed() & v010.observed() & v110.observed() & v001.observed() &
+            v101.observed() & v011.observed() & v111.observed())) {
         return Status::kUnobserved;
       }
-      sdf = Trilinear(v000.sdf, v100.sdf, v010.sdf, v110.sdf, v001.sdf, v101.sdf, v011.sdf,
-                      v111.sdf, fx, fy, fz);
+      sdf = Trilinear(v000.sdf(), v100.sdf(), v010.sdf(), v110.sdf(), v001.sdf(), v101.sdf(), v011.sdf(),
+                      v111.sdf(), fx, fy, fz);
       return Status::kOk;
     }
     return SampleAcrossBlocks(ix, iy, iz, fx, fy, fz, sdf);

@@ -18,6 +18,10 @@
 namespace hw::reconstruct {
 namespace {
 
+// One storage step of a voxel's sdf (2^-14 of the band): a stored value is the exact one
+// rounded to the nearest step, so within half a step of it.
+constexpr float kSdfStep = 1.0f / Voxel::kSdfUnit;
+
 using test::SmallCamera;
 using test::SmallOptions;
 
@@ -60,8 +64,8 @@ void FillLinear(TsdfVolume& volume, int lo, int hi, const Eigen::Vector4f& field
         for (int i = 0; i < kBlockVoxels; ++i) {
           const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
           const Eigen::Vector3f p = v.cast<float>() * h;
-          block.voxels[i].sdf = field.head<3>().dot(p) + field.w();
-          block.voxels[i].weight = 1;
+          block.voxels[i].set_sdf(field.head<3>().dot(p) + field.w());
+          block.voxels[i].set_weight(1);
           block.voxels[i].colour = Rgb8(10, 20, 30);
           block.voxels[i].colour_weight = 1;
         }
@@ -84,14 +88,19 @@ TEST(TsdfStorage, SdfAndNormalExactOnALinearField) {
     const float expected = field.head<3>().dot(p) + field.w();
     const auto sdf = volume.SdfAt(p);
     ASSERT_TRUE(sdf.has_value());
-    // Float rounding of values of order 0.1: 1e-5.
-    EXPECT_NEAR(*sdf, expected, 1e-5f) << p.transpose();
+    // The voxels' storage (half a step: trilinear weights sum to 1) and float rounding of
+    // values of order 0.1 (1e-5).
+    EXPECT_NEAR(*sdf, expected, 0.5f * kSdfStep + 1e-5f) << p.transpose();
     float fast;
     ASSERT_TRUE(sampler.Sdf(p, fast));
     EXPECT_NEAR(fast, *sdf, 1e-6f);
     const auto normal = volume.NormalAt(p);
     ASSERT_TRUE(normal.has_value());
-    EXPECT_LT((*normal - field.head<3>().normalized()).norm(), 1e-4f) << p.transpose();
+    // Each central difference spans 2 voxels and each of its two samples is within half a
+    // storage step: a component of the gradient is off by at most one step in 2h·|∇| (this
+    // field is shallow, 1 band per m: 0.3 % at 1 cm), the unit vector by √3 times that.
+    const float storage = std::sqrt(3.0f) * kSdfStep / (2 * h * field.head<3>().norm());
+    EXPECT_LT((*normal - field.head<3>().normalized()).norm(), storage + 1e-4f) << p.transpose();
     const auto colour = volume.ColourAt(p);
     ASSERT_TRUE(colour.has_value());
     EXPECT_EQ(*colour, Rgb8(10, 20, 30));
@@ -99,7 +108,7 @@ TEST(TsdfStorage, SdfAndNormalExactOnALinearField) {
   // At voxel centres: the stored value itself (the cell's first corner).
   const Voxel* v = volume.FindVoxel({-3, 4, -9});
   ASSERT_NE(v, nullptr);
-  EXPECT_FLOAT_EQ(*volume.SdfAt(Eigen::Vector3f(-3, 4, -9) * h), v->sdf);
+  EXPECT_FLOAT_EQ(*volume.SdfAt(Eigen::Vector3f(-3, 4, -9) * h), v->sdf());
   // Outside the filled blocks: nothing.
   EXPECT_FALSE(volume.SdfAt(Eigen::Vector3f(20, 0, 0) * h).has_value());
   EXPECT_FALSE(volume.SdfAt(Eigen::Vector3f(15.5f, 0, 0) * h).has_value());  // corner at voxel 16
@@ -116,7 +125,7 @@ TEST(TsdfStorage, UnobservedVoxelsAreNotInterpolated) {
   const Eigen::Vector3f p(3.5f * h, 3.5f * h, 3.5f * h);
   EXPECT_TRUE(volume.SdfAt(p).has_value());
   VoxelBlock& block = volume.GetOrCreateBlock(BlockKey(0, 0, 0));
-  block.voxels[4 + 8 * (4 + 8 * 4)].weight = 0;  // corner (4, 4, 4) of the cell at 3.5
+  block.voxels[4 + 8 * (4 + 8 * 4)].set_weight(0);  // corner (4, 4, 4) of the cell at 3.5
   EXPECT_FALSE(volume.SdfAt(p).has_value());
   EXPECT_FALSE(volume.ColourAt(p).has_value());
   EXPECT_FALSE(volume.NormalAt(Eigen::Vector3f(2.5f, 3.5f, 3.5f) * h).has_value());
@@ -161,8 +170,8 @@ TEST(TsdfStorage, BlocksKeepTheirAddressesAndDefaultsAcrossChunks) {
   for (int i = 0; i < kBlocks; ++i) {
     VoxelBlock& block = volume.GetOrCreateBlock(BlockKey(i % 20 - 10, (i / 20) % 20, i / 400 - 5));
     // Marks its first and last voxels: a later block overlapping it would overwrite them.
-    block.voxels.front().weight = static_cast<float>(i);
-    block.voxels.back().sdf = -static_cast<float>(i);
+    block.voxels.front().weight_count = static_cast<std::uint16_t>(i);
+    block.voxels.back().sdf_steps = static_cast<std::int16_t>(-i);
     made.push_back(&block);
   }
   ASSERT_EQ(volume.NumBlocks(), static_cast<size_t>(kBlocks));
@@ -170,14 +179,14 @@ TEST(TsdfStorage, BlocksKeepTheirAddressesAndDefaultsAcrossChunks) {
     const BlockKey key(i % 20 - 10, (i / 20) % 20, i / 400 - 5);
     ASSERT_EQ(volume.FindBlock(key), made[i]) << i;
     ASSERT_EQ(made[i]->key, key) << i;
-    ASSERT_EQ(made[i]->voxels.front().weight, static_cast<float>(i)) << i;
-    ASSERT_EQ(made[i]->voxels.back().sdf, -static_cast<float>(i)) << i;
+    ASSERT_EQ(made[i]->voxels.front().weight_count, i) << i;
+    ASSERT_EQ(made[i]->voxels.back().sdf_steps, -i) << i;
     for (int v = 1; v < kBlockVoxels; ++v) {
       const Voxel& voxel = made[i]->voxels[v];
       if (v < kBlockVoxels - 1) {
-        ASSERT_EQ(voxel.sdf, 1.0f) << i << " " << v;
+        ASSERT_EQ(voxel.sdf(), 1.0f) << i << " " << v;
       }
-      ASSERT_EQ(voxel.weight, 0.0f) << i << " " << v;
+      ASSERT_EQ(voxel.weight(), 0.0f) << i << " " << v;
       ASSERT_EQ(voxel.colour, Rgb8::Zero()) << i << " " << v;
       ASSERT_EQ(voxel.colour_weight, 0) << i << " " << v;
     }
@@ -220,6 +229,15 @@ TEST(TsdfOptions, CheckNamesTheField) {
   EXPECT_EQ(o.Check(), "");
   o.truncation_m = 0.005;
   EXPECT_NE(o.Check().find("truncation_m"), std::string::npos);
+  // A voxel counts its weight in 16 bits: whole frames only.
+  for (const double w : {0.5, 2.5, 65536.0}) {
+    TsdfOptions bad;
+    bad.max_weight = w;
+    EXPECT_NE(bad.Check().find("max_weight"), std::string::npos) << w;
+  }
+  o = TsdfOptions();
+  o.max_weight = 65535;
+  EXPECT_EQ(o.Check(), "");
 }
 
 TEST(TsdfOptions, TheBandFollowsTheDepthNoiseWhereItIsWider) {
@@ -362,17 +380,17 @@ TEST(TsdfIntegrate, FrontalPlaneIsExact) {
       const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
       const Eigen::Vector3f p = v.cast<float>() * h;
       const Voxel& voxel = block.voxels[i];
-      observed += voxel.weight > 0;
+      observed += voxel.weight() > 0;
       int px, py;
       const bool in_view = camera.NearestPixel(camera.Project(p), px, py);
       if (!in_view || p.z() > 1.0f + t + 1e-4f) {
-        EXPECT_EQ(voxel.weight, 0) << p.transpose();
-        EXPECT_EQ(voxel.sdf, 1.0f) << p.transpose();  // made by the update's thread: the default
+        EXPECT_EQ(voxel.weight(), 0) << p.transpose();
+        EXPECT_EQ(voxel.sdf(), 1.0f) << p.transpose();  // made by the update's thread: the default
         continue;
       }
       if (p.z() > 1.0f + t - 1e-4f) continue;  // on the cut-off, either way
-      ASSERT_EQ(voxel.weight, 1) << p.transpose();
-      EXPECT_NEAR(voxel.sdf, std::min(1.0f, (1.0f - p.z()) / t), 1e-5f) << p.transpose();
+      ASSERT_EQ(voxel.weight(), 1) << p.transpose();
+      EXPECT_NEAR(voxel.sdf(), std::min(1.0f, (1.0f - p.z()) / t), 0.5f * kSdfStep + 1e-5f) << p.transpose();
       ++checked;
     }
   });
@@ -401,21 +419,22 @@ TEST(TsdfIntegrate, WeightsCountFramesAndCap) {
     EXPECT_EQ(stats.blocks_visible, static_cast<int>(volume.NumBlocks()));
     capped.Integrate(depth, camera, pose);
   }
-  // 1 cm in front of the plane. Tolerances 1e-5: the voxel's z is 99 · 0.01f in float, and
-  // 1 − z loses 5 digits to cancellation.
+  // 1 cm in front of the plane. Tolerances: the voxel's z is 99 · 0.01f in float, and 1 − z
+  // loses 5 digits to cancellation (1e-5); each update rounds the mean to a storage step, and
+  // an earlier rounding shrinks by w / (w + 1) per update: within 1 step after any number.
   const Eigen::Vector3i v(0, 0, 99);
   ASSERT_NE(volume.FindVoxel(v), nullptr);
-  EXPECT_EQ(volume.FindVoxel(v)->weight, 3);
-  EXPECT_NEAR(volume.FindVoxel(v)->sdf, 1.0f / 3, 1e-5f);
-  EXPECT_EQ(capped.FindVoxel(v)->weight, 2);
-  EXPECT_NEAR(capped.FindVoxel(v)->sdf, 1.0f / 3, 1e-5f);
+  EXPECT_EQ(volume.FindVoxel(v)->weight(), 3);
+  EXPECT_NEAR(volume.FindVoxel(v)->sdf(), 1.0f / 3, kSdfStep + 1e-5f);
+  EXPECT_EQ(capped.FindVoxel(v)->weight(), 2);
+  EXPECT_NEAR(capped.FindVoxel(v)->sdf(), 1.0f / 3, kSdfStep + 1e-5f);
   // A moved plane: the capped volume follows it faster (it weighs the old one 2:1, not 3:1).
   const cv::Mat nearer = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 0.995);
   volume.Integrate(nearer, camera, pose);
   capped.Integrate(nearer, camera, pose);
   const float new_sdf = (0.995f - 0.99f) / 0.03f;
-  EXPECT_NEAR(volume.FindVoxel(v)->sdf, (3 * (1.0f / 3) + new_sdf) / 4, 1e-5f);
-  EXPECT_NEAR(capped.FindVoxel(v)->sdf, (2 * (1.0f / 3) + new_sdf) / 3, 1e-5f);
+  EXPECT_NEAR(volume.FindVoxel(v)->sdf(), (3 * (1.0f / 3) + new_sdf) / 4, kSdfStep + 1e-5f);
+  EXPECT_NEAR(capped.FindVoxel(v)->sdf(), (2 * (1.0f / 3) + new_sdf) / 3, kSdfStep + 1e-5f);
 }
 
 TEST(TsdfIntegrate, SameResultOnAnyThreadCount) {
@@ -430,8 +449,8 @@ TEST(TsdfIntegrate, SameResultOnAnyThreadCount) {
     const VoxelBlock* other = three.FindBlock(block.key);
     ASSERT_NE(other, nullptr);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      EXPECT_EQ(block.voxels[i].sdf, other->voxels[i].sdf);
-      EXPECT_EQ(block.voxels[i].weight, other->voxels[i].weight);
+      EXPECT_EQ(block.voxels[i].sdf(), other->voxels[i].sdf());
+      EXPECT_EQ(block.voxels[i].weight(), other->voxels[i].weight());
     }
   });
 }
@@ -456,14 +475,14 @@ TEST(TsdfIntegrate, SphereDistanceBiasIsBounded) {
   volume.ForEachBlock([&](const VoxelBlock& block) {
     for (int i = 0; i < kBlockVoxels; ++i) {
       const Voxel& voxel = block.voxels[i];
-      if (voxel.weight == 0) continue;
+      if (voxel.weight() == 0) continue;
       const Eigen::Vector3i v = block.key * kBlockSide + Eigen::Vector3i(i % 8, (i / 8) % 8, i / 64);
       const Eigen::Vector3d p = v.cast<double>() * h;
       const double delta = (p - centre).norm() - radius;  // true signed distance
       const Eigen::Vector3d normal = (p - centre).normalized();
       const double cos_theta = std::abs(normal.dot(p.normalized()));
       if (cos_theta < 0.7 || std::abs(delta) > 0.6 * t) continue;  // rim; saturated band
-      const double stored = static_cast<double>(voxel.sdf) * t;
+      const double stored = static_cast<double>(voxel.sdf()) * t;
       const double bound = std::abs(delta) * (1 / cos_theta - 1) + 2 * delta * delta / radius + 2e-4;
       EXPECT_NEAR(stored, delta, bound) << p.transpose();
       if (std::abs(delta) > 2e-4) {
@@ -506,7 +525,7 @@ TEST(TsdfIntegrate, UniformColour) {
   EXPECT_EQ(in_band->colour_weight, 2);
   const Voxel* in_front = volume.FindVoxel({0, 0, 96});  // 4 cm in front: outside the band
   ASSERT_NE(in_front, nullptr);
-  EXPECT_EQ(in_front->weight, 2);
+  EXPECT_EQ(in_front->weight(), 2);
   EXPECT_EQ(in_front->colour_weight, 0);
   const auto at_surface = volume.ColourAt(Eigen::Vector3f(0.004f, 0.002f, 1.0f));
   ASSERT_TRUE(at_surface.has_value());
@@ -544,7 +563,7 @@ TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
 // where not; both must write the same bits. A scene with what sends voxels down every
 // branch: depth edges (a sphere before a slanted wall), noise, holes and NaN pixels, a wall
 // filling the image to its last row and column, colour through an offset camera whose image
-// also ends inside the view, and a fractional weight cap (weights that are not whole).
+// also ends inside the view, and a weight cap the voxels reach.
 // Integrates the same noisy frames with the AVX2 kernel and the scalar one and expects the
 // same bits in every voxel.
 // colour_bands > 0: a rolling-shutter colour camera turning 0.3° about y per band of rows.
@@ -553,7 +572,7 @@ void ExpectSimdWritesTheScalarBits(TsdfOptions options, int colour_bands = 0) {
   std::mt19937 random(7);
   std::normal_distribution<float> noise(0.0f, 0.003f);
   std::uniform_int_distribution<int> byte(0, 255), percent(0, 99);
-  options.max_weight = 2.5;
+  options.max_weight = 3;
   TsdfVolume simd(options), scalar(options);
   const Eigen::Vector3d eyes[] = {{0, 0, 0}, {0.1, -0.05, 0.05}, {-0.08, 0.04, -0.1}, {0.02, 0.1, 0.0}};
   for (const Eigen::Vector3d& eye : eyes) {
@@ -596,19 +615,19 @@ void ExpectSimdWritesTheScalarBits(TsdfOptions options, int colour_bands = 0) {
     EXPECT_EQ(a.blocks_visible, b.blocks_visible);
   }
   ASSERT_EQ(simd.NumBlocks(), scalar.NumBlocks());
-  int64_t differ = 0, fractional = 0, painted = 0;
+  int64_t differ = 0, capped = 0, painted = 0;
   simd.ForEachBlock([&](const VoxelBlock& block) {
     const VoxelBlock* other = scalar.FindBlock(block.key);
     ASSERT_NE(other, nullptr);
     for (int i = 0; i < kBlockVoxels; ++i) {
       const Voxel &p = block.voxels[i], &q = other->voxels[i];
       differ += std::memcmp(&p, &q, sizeof(Voxel)) != 0;
-      fractional += p.weight == 2.5f;
+      capped += p.weight() == 3;
       painted += p.colour_weight > 0;
     }
   });
   EXPECT_EQ(differ, 0);
-  EXPECT_GT(fractional, 10000);  // the cap was reached: w + 1 = 3.5 was divided by
+  EXPECT_GT(capped, 10000);  // the cap was reached
   EXPECT_GT(painted, 10000);
 }
 
