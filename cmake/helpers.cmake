@@ -5,8 +5,14 @@ set(HW_WARNINGS -Wall -Wextra -Wpedantic -Wshadow=local -Wnon-virtual-dtor -Wcas
                 -Wunused -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion
                 -Wformat=2 -Wimplicit-fallthrough)
 
+# -ffp-contract=off: GCC fuses a·b + c into one FMA (one rounding instead of two) wherever the
+# target has FMA unless told not to, which C++ mode allows by default; our SIMD kernels'
+# x86-64-v4 clones (target_clones) have it, so on an AVX-512 CPU they rounded differently from
+# the scalar code they must match bit for bit (and from the AVX2 clone another machine runs).
+set(HW_FLOAT_OPTIONS -ffp-contract=off)
+
 function(hw_set_target_options target)
-  target_compile_options(${target} PRIVATE ${HW_WARNINGS})
+  target_compile_options(${target} PRIVATE ${HW_WARNINGS} ${HW_FLOAT_OPTIONS})
   target_include_directories(${target} PUBLIC "${PROJECT_SOURCE_DIR}")
 endfunction()
 
