@@ -592,7 +592,7 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--truncation-noise-sigmas", r.tsdf.truncation_noise_sigmas,
                  "widen the truncation band to this many sigmas of the depth noise where that is wider (0: fixed band)")
       ->capture_default_str();
-  app.add_option("--max-weight", r.tsdf.max_weight, "TSDF weight cap, frames")->capture_default_str();
+  app.add_option("--max-weight", r.tsdf.max_weight, "TSDF weight cap, frames (a whole number)")->capture_default_str();
   app.add_option("--min-depth", r.min_depth_m, "nearest depth used, m")->capture_default_str();
   app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();
   bool no_colour = false;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -114,8 +115,9 @@ struct Voxel {
   float sdf() const { return static_cast<float>(sdf_steps) * (1.0f / kSdfUnit); }
   float weight() const { return static_cast<float>(weight_count); }
   bool observed() const { return weight_count != 0; }
-  // Stores s (clamped to [−1, 1]; NaN is a bug) rounded to the nearest step.
+  // Stores s (clamped to [−1, 1]; NaN is a bug: asserts) rounded to the nearest step.
   void set_sdf(float s) {
+    assert(s == s);
     const float scaled = std::clamp(s * kSdfUnit, -kSdfUnit, kSdfUnit);
     // Round to nearest even by adding and removing 1.5 · 2^23 (exact below 2^22; std::lrint
     // is a library call here).
