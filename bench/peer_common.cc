@@ -208,10 +208,7 @@ std::optional<core::Trajectory> ReadGivenPoses(const PeerOptions& options) {
 std::optional<Eigen::Matrix4d> GivenPoseAt(const core::Trajectory& poses, double timestamp_s) {
   const std::optional<core::Rigid3d> pose = poses.At(timestamp_s);
   if (!pose) return std::nullopt;
-  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-  m.topLeftCorner<3, 3>() = pose->rotation.toRotationMatrix();
-  m.topRightCorner<3, 1>() = pose->translation;
-  return m;
+  return pose->ToMatrix4();
 }
 
 }  // namespace hw::bench
