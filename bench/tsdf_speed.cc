@@ -4,7 +4,11 @@
 // resolution (the ICP reference) and at half resolution.
 //
 //   bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] [--no-colour]
-//                         [--repeat R] [--dump FILE] [--thermal]
+//                         [--repeat R] [--dump FILE] [--thermal] [--step S] [--max-depth M] [--fine]
+//
+// --step S integrates every S-th depth frame (the pipeline integrates about every third on
+// a smooth sweep); --max-depth the range (the TSDF default 4 m; rigs say 5); --fine updates
+// every voxel of far blocks too (TsdfOptions::coarse_far off), to compare the two.
 //
 // SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
 // fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
@@ -44,11 +48,11 @@ int Run(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] "
-                 "[--no-colour] [--repeat R] [--dump FILE] [--thermal]\n");
+                 "[--no-colour] [--repeat R] [--dump FILE] [--thermal] [--step S] [--max-depth M] [--fine]\n");
     return 1;
   }
   const std::string folder = argv[1];
-  int frames = 60, threads = 2, repeat = 1;
+  int frames = 60, threads = 2, repeat = 1, step = 1;
   bool colour = true, thermal = false;
   std::string dump;
   hw::reconstruct::TsdfOptions options;
@@ -69,6 +73,9 @@ int Run(int argc, char** argv) {
     else if (a == "--repeat") repeat = std::max(1, std::atoi(next()));
     else if (a == "--dump") dump = next();
     else if (a == "--thermal") thermal = true;
+    else if (a == "--step") step = std::max(1, std::atoi(next()));  // every step-th depth frame (the pipeline: ~3)
+    else if (a == "--max-depth") options.max_depth_m = std::atof(next());
+    else if (a == "--fine") options.coarse_far = false;  // every voxel of far blocks updated
     else {
       std::fprintf(stderr, "bench_tsdf_speed: unknown option %s\n", a.c_str());
       return 1;
@@ -95,12 +102,12 @@ int Run(int argc, char** argv) {
               camera.width, camera.height, options.voxel_size_m, options.truncation_m, threads,
               colour && rig.rgb ? "yes" : "no");
   std::printf("wall ms per call, and (cpu) process CPU ms per call summed over its threads\n");
-  std::printf("%5s %16s %16s %16s %8s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
-              "ray 1/2 (cpu)", "blocks", "visible", "kvoxels", "valid%", "MiB");
+  std::printf("%5s %16s %16s %16s %8s %8s %8s %8s %7s %7s\n", "frame", "integrate (cpu)", "raycast (cpu)",
+              "ray 1/2 (cpu)", "blocks", "visible", "coarse", "kvoxels", "valid%", "MiB");
   std::vector<double> integrate_ms, raycast_ms, half_ms, integrate_cpu, raycast_cpu, half_cpu;
   std::vector<hw::core::Rigid3d> poses;
-  const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
-  for (int i = 0; i < n; ++i) {
+  const int n = std::min(frames * step, scan.NumFrames(hw::core::Stream::kDepth));
+  for (int i = 0; i < n; i += step) {
     const double t = scan.DepthClockTime(hw::core::Stream::kDepth, i);
     const auto pose = scan.groundtruth()->At(t);
     if (!pose || !scan.FrameExists(hw::core::Stream::kDepth, i)) continue;
@@ -160,9 +167,9 @@ int Run(int argc, char** argv) {
     integrate_cpu.push_back(integrate_end_cpu - c0);
     raycast_cpu.push_back(c2 - c1);
     half_cpu.push_back(c3 - c2);
-    std::printf("%5d %7.2f (%6.2f) %7.2f (%6.2f) %7.2f (%6.2f) %8zu %8d %8lld %7.1f %7.1f\n", i,
+    std::printf("%5d %7.2f (%6.2f) %7.2f (%6.2f) %7.2f (%6.2f) %8zu %8d %8d %8lld %7.1f %7.1f\n", i,
                 integrate_ms.back(), integrate_cpu.back(), raycast_ms.back(), raycast_cpu.back(), half_ms.back(),
-                half_cpu.back(), volume.NumBlocks(), stats.blocks_visible,
+                half_cpu.back(), volume.NumBlocks(), stats.blocks_visible, stats.blocks_coarse,
                 static_cast<long long>(stats.voxels_updated / 1000),
                 100.0 * map.NumValid() / static_cast<double>(map.points.size()),
                 static_cast<double>(volume.MemoryBytes()) / (1 << 20));

@@ -54,7 +54,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("noise_base_m", r.tsdf.noise.base_m)
       .Number("noise_quadratic_per_m", r.tsdf.noise.quadratic_per_m)
       .Number("noise_reference_m", r.tsdf.noise.reference_m)
-      .Number("max_weight", r.tsdf.max_weight);
+      .Number("max_weight", r.tsdf.max_weight)
+      .Bool("coarse_far", r.tsdf.coarse_far);
   depth.Int("bilateral_radius_px", r.depth.bilateral_radius_px)
       .Number("bilateral_sigma_px", r.depth.bilateral_sigma_px)
       .Number("bilateral_sigma_depth_m", r.depth.bilateral_sigma_depth_m)
@@ -159,6 +160,8 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Number("correction_deg", f.correction_deg);
   }
   o.Int("blocks", static_cast<int64_t>(f.blocks))
+      .Int("blocks_updated", f.blocks_updated)
+      .Int("blocks_coarse", f.blocks_coarse)
       .Number("prepare_ms", f.prepare_ms)
       .Number("track_ms", f.track_ms)
       .Number("integrate_ms", f.integrate_ms)
@@ -193,6 +196,8 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
       .Int("lost", r.lost).Int("no_depth", r.no_depth).Int("missing", r.missing)
       .Int("coloured", r.coloured)
       .Int("integrated", r.integrated)
+      .Int("blocks_updated", r.blocks_updated)
+      .Int("blocks_coarse", r.blocks_coarse)
       .Int("dynamic_frames", r.dynamic_frames)
       .Int("dynamic_pixels", static_cast<int64_t>(r.dynamic_pixels))
       .Int("carved_frames", r.carved_frames)
@@ -383,6 +388,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.integrated += f.integrated;
+    r.blocks_updated += f.blocks_updated;
+    r.blocks_coarse += f.blocks_coarse;
     r.dynamic_frames += f.dynamic_pixels > 0;
     r.dynamic_pixels += f.dynamic_pixels;
     r.carved_frames += f.carved_points > 0;
@@ -491,6 +498,10 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                               "raycasts: --integrate-between-raycasts false)\n",
                               r.integrated, r.fused);
   }
+  if (r.blocks_coarse > 0) {
+    out += core::StringPrintf("Fusion     %.0f%% of the block updates coarse (far blocks never seen nearer: --coarse-far)\n",
+                              100.0 * static_cast<double>(r.blocks_coarse) / static_cast<double>(r.blocks_updated));
+  }
   if (r.dynamic_frames > 0 || r.carved_frames > 0) {
     out += core::StringPrintf("Dynamic    %lld depth pixels of %d frames not integrated (in front of the model: something "
                               "moved in); %lld model points of %d frames carved (seen through: something left); "
@@ -593,6 +604,10 @@ int RunReconstruct(int argc, char** argv) {
                  "widen the truncation band to this many sigmas of the depth noise where that is wider (0: fixed band)")
       ->capture_default_str();
   app.add_option("--max-weight", r.tsdf.max_weight, "TSDF weight cap, frames (a whole number)")->capture_default_str();
+  app.add_option("--coarse-far", r.tsdf.coarse_far,
+                 "update blocks seen only from where one reading's noise and a depth pixel outgrow a voxel (2.6 m "
+                 "at 5 mm, 525 px) on every other voxel, the others interpolated, until seen nearer: true or false")
+      ->capture_default_str();
   app.add_option("--min-depth", r.min_depth_m, "nearest depth used, m")->capture_default_str();
   app.add_option("--max-depth", r.max_depth_m, "farthest depth used, m")->capture_default_str();
   bool no_colour = false;

@@ -86,6 +86,7 @@ struct ReconstructCommandResult {
   double noise_gate_sigmas = 0;  // ICP's depth-noise gate used (IcpOptions::noise_gate_sigmas)
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int integrated = 0;  // fused frames whose depth went into the volume
+  int64_t blocks_updated = 0, blocks_coarse = 0;  // block updates over the run, and coarse ones
   int dynamic_frames = 0;      // frames with depth pixels masked as in front of the model
   int64_t dynamic_pixels = 0;  // ... and those pixels
   int carved_frames = 0;       // frames that saw through model points (carved as free space)

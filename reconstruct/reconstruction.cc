@@ -706,7 +706,10 @@ void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& fr
     }
     if (!through.empty()) volume_.CarveFreeSpace(through, world_from_depth.translation.cast<float>());
   }
-  volume_.Integrate(depth_m, depth_undistorter_.pinhole(), world_from_depth, colour ? &*colour : nullptr);
+  const IntegrateStats stats =
+      volume_.Integrate(depth_m, depth_undistorter_.pinhole(), world_from_depth, colour ? &*colour : nullptr);
+  record.blocks_updated = stats.blocks_visible;
+  record.blocks_coarse = stats.blocks_coarse;
   record.integrated = true;
   record.integrate_ms = internal::MsSince(start);
 }

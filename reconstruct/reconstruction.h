@@ -238,6 +238,9 @@ struct FrameRecord {
   double correction_m = 0, correction_deg = 0;
   size_t blocks = 0;  // voxel blocks in the volume after this frame, fused or not (memory
                       // follows them)
+  // Blocks its integration updated, and of those the ones updated coarsely (far, never seen
+  // nearer: TsdfOptions::coarse_far); 0 when not integrated.
+  int blocks_updated = 0, blocks_coarse = 0;
   // Wall time of each stage, ms. raycast_ms is 0 when the model view was not cast after
   // this frame (ReconstructionOptions::raycast_interval).
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;

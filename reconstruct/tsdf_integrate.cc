@@ -32,6 +32,7 @@
 #include <Eigen/Geometry>
 
 #include "reconstruct/tsdf_volume.h"
+#include "reconstruct/tsdf_fill.h"
 #include "reconstruct/tsdf_volume_impl.h"
 
 namespace hw::reconstruct {
@@ -145,11 +146,13 @@ struct RowPoints {
   alignas(32) float z[kBlockSide];
 };
 
-// Updates one row of kBlockSide voxels (consecutive in x) with the frame; returns how many
-// were updated. The reference implementation: UpdateRowAvx2 must give the same bits.
-int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
+// Updates the voxels of one row of kBlockSide (consecutive in x) whose bit is set in `lanes`
+// (bit x: voxel x) with the frame; returns how many were updated. The reference
+// implementation: UpdateRowAvx2 must give the same bits.
+int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel, unsigned lanes) {
   int count = 0;
   for (int x = 0; x < kBlockSide; ++x, ++voxel) {
+    if ((lanes >> x & 1) == 0) continue;
     const float pz = row.z[x];
     if (!(pz > 0)) continue;
     const float inv_z = 1.0f / pz;
@@ -230,16 +233,19 @@ int UpdateRowScalar(const FrameParams& f, const RowPoints& row, Voxel* voxel) {
   return count;
 }
 
-// Updates the kernel voxels of a block whose voxel (0, 0, 0) is at corner_in_camera (m);
-// returns how many were updated. The reference for UpdateBlockAvx2.
-int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_camera, Voxel* voxel) {
+// Updates the voxels of a block whose voxel (0, 0, 0) is at corner_in_camera (m) — when
+// `coarse`, its even voxels, then fills the others from them (tsdf_fill.h); returns how many
+// were updated. The reference for UpdateBlockAvx2.
+int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_camera, Voxel* voxel, bool coarse) {
   const Eigen::Vector3f step_x(f.step_x[0], f.step_x[1], f.step_x[2]);
   const Eigen::Vector3f step_y(f.step_y[0], f.step_y[1], f.step_y[2]);
   const Eigen::Vector3f step_z(f.step_z[0], f.step_z[1], f.step_z[2]);
+  const int stride = coarse ? 2 : 1;
+  const unsigned lanes = coarse ? 0x55u : 0xFFu;
   int count = 0;
   RowPoints row;
-  for (int z = 0; z < kBlockSide; ++z) {
-    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
+  for (int z = 0; z < kBlockSide; z += stride) {
+    for (int y = 0; y < kBlockSide; y += stride) {
       // Voxel centres stepped along x one addition at a time (as they always were: the
       // SIMD kernel makes the same additions, so both see the same bits).
       Eigen::Vector3f p = corner_in_camera + static_cast<float>(y) * step_y + static_cast<float>(z) * step_z;
@@ -248,9 +254,10 @@ int UpdateBlockScalar(const FrameParams& f, const Eigen::Vector3f& corner_in_cam
         row.y[x] = p.y();
         row.z[x] = p.z();
       }
-      count += UpdateRowScalar(f, row, voxel);
+      count += UpdateRowScalar(f, row, voxel + kBlockSide * (y + kBlockSide * z), lanes);
     }
   }
+  if (coarse) internal::FillOddVoxelsScalar(voxel);
   return count;
 }
 
@@ -272,9 +279,9 @@ __attribute__((target("avx2"))) inline __m256 OddLanes(__m256 lo4, __m256 hi4) {
 }
 
 __attribute__((target("avx2"), always_inline)) inline int UpdateRowAvx2(const FrameParams& f, __m256 px, __m256 py,
-                                                                        __m256 pz, Voxel* voxel) {
+                                                                        __m256 pz, __m256 lanes, Voxel* voxel) {
   const __m256 zero = _mm256_setzero_ps();
-  const __m256 in_front = _mm256_cmp_ps(pz, zero, _CMP_GT_OQ);
+  const __m256 in_front = _mm256_and_ps(lanes, _mm256_cmp_ps(pz, zero, _CMP_GT_OQ));
   if (_mm256_movemask_ps(in_front) == 0) return 0;
   const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0f), pz);
   const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(f.fx), px), inv_z), _mm256_set1_ps(f.cx));
@@ -519,10 +526,12 @@ __attribute__((target("avx2"))) inline void Transpose8(const __m256 r[8], __m256
 // once (lanes over y) with the scalar code's additions in the same order, then transposed
 // into rows (lanes over x).
 __attribute__((target("avx2"))) int UpdateBlockAvx2(const FrameParams& f, const Eigen::Vector3f& corner_in_camera,
-                                                    Voxel* voxel) {
+                                                    Voxel* voxel, bool coarse) {
   const __m256 y_index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const int stride = coarse ? 2 : 1;
+  const __m256 lanes = _mm256_castsi256_ps(coarse ? _mm256_setr_epi32(-1, 0, -1, 0, -1, 0, -1, 0) : _mm256_set1_epi32(-1));
   int count = 0;
-  for (int z = 0; z < kBlockSide; ++z) {
+  for (int z = 0; z < kBlockSide; z += stride) {
     __m256 rows[3][kBlockSide];
     for (int i = 0; i < 3; ++i) {
       __m256 columns[kBlockSide];
@@ -533,10 +542,11 @@ __attribute__((target("avx2"))) int UpdateBlockAvx2(const FrameParams& f, const 
       for (int x = 0; x < kBlockSide; ++x, p = _mm256_add_ps(p, step)) columns[x] = p;
       Transpose8(columns, rows[i]);
     }
-    for (int y = 0; y < kBlockSide; ++y, voxel += kBlockSide) {
-      count += UpdateRowAvx2(f, rows[0][y], rows[1][y], rows[2][y], voxel);
+    for (int y = 0; y < kBlockSide; y += stride) {
+      count += UpdateRowAvx2(f, rows[0][y], rows[1][y], rows[2][y], lanes, voxel + kBlockSide * (y + kBlockSide * z));
     }
   }
+  if (coarse) internal::FillOddVoxels(voxel);
   return count;
 }
 
@@ -701,31 +711,49 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
     f.step_y[i] = cw_rotation(i, 1) * voxel_m;
     f.step_z[i] = cw_rotation(i, 2) * voxel_m;
   }
-  int (*update_block)(const FrameParams&, const Eigen::Vector3f&, Voxel*) = UpdateBlockScalar;
+  int (*update_block)(const FrameParams&, const Eigen::Vector3f&, Voxel*, bool) = UpdateBlockScalar;
 #ifdef HW_TSDF_AVX2
   if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_block = UpdateBlockAvx2;
 #endif
 
+  // Blocks whose centre lies beyond this depth, never seen nearer, are updated coarsely.
+  const float coarse_beyond_m = static_cast<float>(options_.CoarseBeyondM(std::min(camera.fx, camera.fy)));
+  const Eigen::Vector3f centre_offset = cw_rotation * Eigen::Vector3f::Constant(0.5f * (block_m - voxel_m));
   std::vector<int64_t> updated(num_threads, 0);
+  std::vector<int> coarse_blocks(num_threads, 0);
   std::atomic<size_t> next_block{0};
   constexpr size_t kChunkBlocks = 32;
   internal::RunChunks(num_threads, [&](int chunk) {
     int64_t count = 0;
+    int coarse_count = 0;
     for (;;) {
       const size_t begin = next_block.fetch_add(kChunkBlocks, std::memory_order_relaxed);
       if (begin >= visible.size()) break;
       const size_t end = std::min(begin + kChunkBlocks, visible.size());
       for (size_t b = begin; b < end; ++b) {
+        static_assert(kBlockSide * sizeof(Voxel) == 64);
+        // The next block's voxels, one cache line per row, fetched while this one is
+        // updated: a coarse update reads every other row and slab, which the hardware's
+        // prefetcher does not follow (measured on the 10 s `building` sweep: −10-15 % of the
+        // integration; −7 % for blocks updated whole).
+        if (b + 1 < end && fresh[b + 1] == ~uint64_t{0}) {
+          const char* next = reinterpret_cast<const char*>(visible[b + 1]->voxels.data());
+          for (int row = 0; row < kBlockVoxels / kBlockSide; ++row) __builtin_prefetch(next + 64 * row, 1, 3);
+        }
         if (fresh[b] != ~uint64_t{0}) BlockArena::Construct(visible[b], Unpack(fresh[b]));
         VoxelBlock& block = *visible[b];
         const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
         const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
-        count += update_block(f, corner_in_camera, block.voxels.data());
+        if ((corner_in_camera + centre_offset).z() <= coarse_beyond_m) block.seen_near = true;
+        coarse_count += !block.seen_near;
+        count += update_block(f, corner_in_camera, block.voxels.data(), !block.seen_near);
       }
     }
     updated[chunk] = count;
+    coarse_blocks[chunk] = coarse_count;
   });
   for (const int64_t n : updated) stats.voxels_updated += n;
+  for (const int n : coarse_blocks) stats.blocks_coarse += n;
   return stats;
 }
 

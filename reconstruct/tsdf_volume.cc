@@ -1,7 +1,9 @@
 #include "reconstruct/tsdf_volume.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <new>
 
@@ -35,6 +37,17 @@ std::string TsdfOptions::Check() const {
   }
   if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
   return "";
+}
+
+double TsdfOptions::CoarseBeyondM(double focal_px) const {
+  constexpr double kNever = std::numeric_limits<double>::infinity();
+  if (!coarse_far) return kNever;
+  // σ_z(z) >= 2 voxels: z >= reference + sqrt((2 v − base) / quadratic), and at once from the
+  // reference when the noise starts there.
+  const double excess_m = 2 * voxel_size_m - noise.base_m;
+  double noisy_m = noise.reference_m;
+  if (excess_m > 0) noisy_m = noise.quadratic_per_m > 0 ? noise.reference_m + std::sqrt(excess_m / noise.quadratic_per_m) : kNever;
+  return std::max(noisy_m, focal_px * voxel_size_m);  // a pixel z / f wider than a voxel
 }
 
 using internal::KeyInRange;

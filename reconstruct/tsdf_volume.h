@@ -51,6 +51,15 @@ struct TsdfOptions {
   // follows a changed one (a moving person, a door) after about this many frames. A whole
   // number in [1, 65535] (a voxel stores its weight as a 16-bit count).
   double max_weight = 64;
+  // Far blocks on a coarser lattice: a block no camera has seen from nearer than
+  // CoarseBeyondM() is updated on its even voxels only (twice the voxel size; the others
+  // filled from them, tsdf_fill.h) — an eighth of the projections and depth reads where one
+  // reading's noise and a depth pixel are both wider than a voxel, which is where a sweep's
+  // integration spends most of its time (a depth pixel at 4 m costs ~60 times one at 1 m:
+  // its band is 4 times wider and it covers 16 times as many voxels). The first view from
+  // nearer makes the block fine for good, starting from the interpolated values. Measured
+  // (README, Reconstruction).
+  bool coarse_far = true;
   double min_depth_m = 0.3;  // depth pixels nearer than this are not fused, m, >= 0
   double max_depth_m = 4.0;  // ... farther than this, m, > min_depth_m
   // Worker threads for integration and raycasting (0: hardware concurrency). Work is split
@@ -75,6 +84,12 @@ struct TsdfOptions {
             static_cast<float>(noise.reference_m)};
   }
   float TruncationAt(float depth_m) const { return Band().At(depth_m); }
+  // The depth (m, along the optical axis) beyond which a block not yet seen nearer is
+  // updated coarsely (coarse_far): where both one reading's noise σ_z exceeds the coarse
+  // lattice (2 voxels) and a depth pixel (focal_px, pixels) is wider than a voxel — 2.63 m
+  // at 5 mm voxels and 525 px (the noise's bound 2.55 m); beyond any depth when coarse_far is
+  // off or the noise model never gets there.
+  double CoarseBeyondM(double focal_px) const;
 };
 
 // floor(x) as an int for |x| < 2^31, without the libm call std::floor becomes on plain
@@ -139,12 +154,16 @@ struct alignas(64) VoxelBlock {
   // Voxel (x, y, z) inside the block at voxels[x + kBlockSide · (y + kBlockSide · z)].
   std::array<Voxel, kBlockVoxels> voxels;
   BlockKey key;
+  // Updated at least once from nearer than TsdfOptions::CoarseBeyondM: every voxel takes its
+  // own reading from then on (false: only the even ones, the others interpolated).
+  bool seen_near = false;
 };
 
 // What one Integrate() call did.
 struct IntegrateStats {
   int blocks_allocated = 0;  // new blocks this frame
   int blocks_visible = 0;    // blocks updated this frame
+  int blocks_coarse = 0;     // of those, updated on their even voxels (TsdfOptions::coarse_far)
   int64_t voxels_updated = 0;
 };
 

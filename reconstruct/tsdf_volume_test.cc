@@ -291,70 +291,76 @@ TEST(TsdfIntegrate, FarSurfaceIsNotPushedBackByNoise) {
     }
     offsets.push_back(static_cast<float>(sigma * 0.5 * (lo + hi)));
   }
-  for (const double sigmas : {0.0, 3.0}) {
-    TsdfOptions options;  // 5 mm voxels, 2 cm band: the defaults
-    options.truncation_noise_sigmas = sigmas;
-    options.max_weight = 64;
-    TsdfVolume volume(options);
-    for (const float n : offsets) {
-      // A 16×16-pixel patch around the optical axis (0.4 m across at 3.5 m): the rest of
-      // the plane would only cost time.
-      cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
-      depth(cv::Rect(camera.width / 2 - 8, camera.height / 2 - 8, 16, 16)).setTo(plane_z + n);
-      volume.Integrate(depth, camera, pose);
-    }
-    // The crossing the readings imply (x = plane − z: in front of it), the mean of every
-    // kept reading clipped to the band, and what the grid holds of it: the same mean at the
-    // voxel centres of a layer (all alike), of the readings that voxel was updated with —
-    // those not more than a band behind it, whose band reaches its block (integration
-    // visits only the blocks around each frame's surface: one farther in front keeps its
-    // voxels unchanged, not +1) — linear between the two layers around the crossing.
-    const float band = options.TruncationAt(plane_z);  // for the trace
-    const float h = volume.voxel_size_m(), block_m = kBlockSide * h;
-    auto mean_kept = [&](float z, bool blocks) {
-      const float block_lo = std::floor(z / block_m) * block_m;
-      double sum = 0;
-      int kept = 0;
+  // Fine: every voxel updated; coarse (the default at 3.5 m): the even ones, the others
+  // between them.
+  for (const bool coarse : {false, true}) {
+    for (const double sigmas : {0.0, 3.0}) {
+      TsdfOptions options;  // 5 mm voxels, 2 cm band: the defaults
+      options.coarse_far = coarse;
+      options.truncation_noise_sigmas = sigmas;
+      options.max_weight = 64;
+      TsdfVolume volume(options);
       for (const float n : offsets) {
-        const float d = plane_z + n, band_d = options.TruncationAt(d);  // each reading its band
-        if (d - z < -band_d) continue;
-        if (blocks && !(d + band_d >= block_lo && d - band_d < block_lo + block_m)) continue;
-        sum += static_cast<double>(std::min(1.0f, (d - z) * (1.0f / band_d)));
-        ++kept;
+        // A 16×16-pixel patch around the optical axis (0.4 m across at 3.5 m): the rest of
+        // the plane would only cost time.
+        cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
+        depth(cv::Rect(camera.width / 2 - 8, camera.height / 2 - 8, 16, 16)).setTo(plane_z + n);
+        volume.Integrate(depth, camera, pose);
       }
-      return sum / kept;
-    };
-    float lo = plane_z - 0.05f, hi = plane_z + 0.05f;  // mean_kept decreases with z
-    for (int k = 0; k < 60; ++k) (mean_kept(0.5f * (lo + hi), false) > 0 ? lo : hi) = 0.5f * (lo + hi);
-    const float implied_z = 0.5f * (lo + hi);
-    float z0 = std::round(plane_z / h) * h;
-    while (mean_kept(z0, true) <= 0) z0 -= h;
-    while (mean_kept(z0 + h, true) > 0) z0 += h;
-    const double v0 = mean_kept(z0, true), v1 = mean_kept(z0 + h, true);
-    const float expected_z = z0 + h * static_cast<float>(v0 / (v0 - v1));
-    // The fused crossing along a ray near the optical axis (off the voxel grid's planes).
-    TsdfSampler sampler(volume);
-    auto sdf_at = [&](float z) {
-      float s = 0;
-      EXPECT_TRUE(sampler.Sdf(Eigen::Vector3f(0.0123f, -0.0071f, z), s)) << z;
-      return s;
-    };
-    float near = plane_z - 0.04f, far = plane_z + 0.04f;
-    ASSERT_GT(sdf_at(near), 0);
-    ASSERT_LT(sdf_at(far), 0);
-    for (int k = 0; k < 40; ++k) (sdf_at(0.5f * (near + far)) > 0 ? near : far) = 0.5f * (near + far);
-    const float fused_z = 0.5f * (near + far);
-    SCOPED_TRACE(testing::Message() << "sigmas " << sigmas << ", band " << band << " m");
-    // The running means in float, the bisections: 0.05 mm.
-    EXPECT_NEAR(fused_z, expected_z, 5e-5f);
-    if (sigmas == 0) {
-      EXPECT_GT(implied_z - plane_z, 0.007f);  // 7.8 mm behind (σ ≈ the band) ...
-      EXPECT_GT(fused_z - plane_z, 0.006f);    // ... 6.6 mm in the grid's blocks
-    } else {
-      // Not quite on it: each reading has its own depth's band (±1.7 mm over the readings
-      // here), which weighs the nearer ones' distances more: 0.2 mm.
-      EXPECT_NEAR(implied_z, plane_z, 5e-4f);
-      EXPECT_NEAR(fused_z, plane_z, 5e-4f);
+      // The crossing the readings imply (x = plane − z: in front of it), the mean of every
+      // kept reading clipped to the band, and what the grid holds of it: the same mean at the
+      // voxel centres of a layer (all alike), of the readings that voxel was updated with —
+      // those not more than a band behind it, whose band reaches its block (integration
+      // visits only the blocks around each frame's surface: one farther in front keeps its
+      // voxels unchanged, not +1) — linear between the two layers around the crossing (of the
+      // even voxels when coarse: the layers between are their means).
+      const float band = options.TruncationAt(plane_z);  // for the trace
+      const float h = volume.voxel_size_m() * (coarse ? 2 : 1), block_m = kBlockSide * volume.voxel_size_m();
+      auto mean_kept = [&](float z, bool blocks) {
+        const float block_lo = std::floor(z / block_m) * block_m;
+        double sum = 0;
+        int kept = 0;
+        for (const float n : offsets) {
+          const float d = plane_z + n, band_d = options.TruncationAt(d);  // each reading its band
+          if (d - z < -band_d) continue;
+          if (blocks && !(d + band_d >= block_lo && d - band_d < block_lo + block_m)) continue;
+          sum += static_cast<double>(std::min(1.0f, (d - z) * (1.0f / band_d)));
+          ++kept;
+        }
+        return sum / kept;
+      };
+      float lo = plane_z - 0.05f, hi = plane_z + 0.05f;  // mean_kept decreases with z
+      for (int k = 0; k < 60; ++k) (mean_kept(0.5f * (lo + hi), false) > 0 ? lo : hi) = 0.5f * (lo + hi);
+      const float implied_z = 0.5f * (lo + hi);
+      float z0 = std::round(plane_z / h) * h;
+      while (mean_kept(z0, true) <= 0) z0 -= h;
+      while (mean_kept(z0 + h, true) > 0) z0 += h;
+      const double v0 = mean_kept(z0, true), v1 = mean_kept(z0 + h, true);
+      const float expected_z = z0 + h * static_cast<float>(v0 / (v0 - v1));
+      // The fused crossing along a ray near the optical axis (off the voxel grid's planes).
+      TsdfSampler sampler(volume);
+      auto sdf_at = [&](float z) {
+        float s = 0;
+        EXPECT_TRUE(sampler.Sdf(Eigen::Vector3f(0.0123f, -0.0071f, z), s)) << z;
+        return s;
+      };
+      float near = plane_z - 0.04f, far = plane_z + 0.04f;
+      ASSERT_GT(sdf_at(near), 0);
+      ASSERT_LT(sdf_at(far), 0);
+      for (int k = 0; k < 40; ++k) (sdf_at(0.5f * (near + far)) > 0 ? near : far) = 0.5f * (near + far);
+      const float fused_z = 0.5f * (near + far);
+      SCOPED_TRACE(testing::Message() << "sigmas " << sigmas << ", band " << band << " m, coarse " << coarse);
+      // The running means in float, the bisections: 0.05 mm.
+      EXPECT_NEAR(fused_z, expected_z, 5e-5f);
+      if (sigmas == 0) {
+        EXPECT_GT(implied_z - plane_z, 0.007f);  // 7.8 mm behind (σ ≈ the band) ...
+        EXPECT_GT(fused_z - plane_z, 0.006f);    // ... 6.6 mm in the grid's blocks
+      } else {
+        // Not quite on it: each reading has its own depth's band (±1.7 mm over the readings
+        // here), which weighs the nearer ones' distances more: 0.2 mm.
+        EXPECT_NEAR(implied_z, plane_z, 5e-4f);
+        EXPECT_NEAR(fused_z, plane_z, 5e-4f);
+      }
     }
   }
 }
@@ -559,109 +565,29 @@ TEST(TsdfIntegrate, ColourGoesThroughTheColourCameraPose) {
   }
 }
 
-// Integrate has a SIMD kernel (AVX2, where the CPU has it) and the scalar one it replaces
-// where not; both must write the same bits. A scene with what sends voxels down every
-// branch: depth edges (a sphere before a slanted wall), noise, holes and NaN pixels, a wall
-// filling the image to its last row and column, colour through an offset camera whose image
-// also ends inside the view, and a weight cap the voxels reach.
-// Integrates the same noisy frames with the AVX2 kernel and the scalar one and expects the
-// same bits in every voxel.
-// colour_bands > 0: a rolling-shutter colour camera turning 0.3° about y per band of rows.
-void ExpectSimdWritesTheScalarBits(TsdfOptions options, int colour_bands = 0) {
-  const PinholeCamera camera = SmallCamera();
-  std::mt19937 random(7);
-  std::normal_distribution<float> noise(0.0f, 0.003f);
-  std::uniform_int_distribution<int> byte(0, 255), percent(0, 99);
-  options.max_weight = 3;
-  TsdfVolume simd(options), scalar(options);
-  const Eigen::Vector3d eyes[] = {{0, 0, 0}, {0.1, -0.05, 0.05}, {-0.08, 0.04, -0.1}, {0.02, 0.1, 0.0}};
-  for (const Eigen::Vector3d& eye : eyes) {
-    const core::Rigid3d pose = test::LookAt(eye, {0.05, 0, 1.1});
-    const cv::Mat wall = test::RenderPlane(camera, pose, Eigen::Vector3d(0.3, 0.1, 1.0), 1.2);
-    const cv::Mat sphere = test::RenderSphere(camera, pose, {0.05, 0.02, 1.0}, 0.15);
-    cv::Mat depth(camera.height, camera.width, CV_32FC1);
-    for (int y = 0; y < camera.height; ++y) {
-      for (int x = 0; x < camera.width; ++x) {
-        const float s = sphere.at<float>(y, x), w = wall.at<float>(y, x);
-        float d = s > 0 && (w <= 0 || s < w) ? s : w;
-        const int drop = percent(random);
-        if (d > 0) d += noise(random);
-        if (drop < 3) d = 0;
-        if (drop == 3) d = std::numeric_limits<float>::quiet_NaN();
-        depth.at<float>(y, x) = d;
-      }
-    }
-    ColourView colour;
-    colour.camera = {150, 110, 118.0f, 119.0f, 74.5f, 54.5f};
-    colour.rgb = cv::Mat(colour.camera.height, colour.camera.width, CV_8UC3);
-    for (int y = 0; y < colour.rgb.rows; ++y) {
-      for (int x = 0; x < 3 * colour.rgb.cols; ++x) colour.rgb.ptr<std::uint8_t>(y)[x] = static_cast<std::uint8_t>(byte(random));
-    }
-    colour.world_from_camera = pose * core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY())),
-                                                    Eigen::Vector3d(0.025, 0.002, 0));
-    for (int k = 0; k < colour_bands; ++k) {
-      const double turn = 0.3 * (k - 0.5 * (colour_bands - 1)) * std::numbers::pi / 180;
-      colour.world_from_camera_bands.push_back(
-          colour.world_from_camera *
-          core::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()));
-    }
-    internal::integrate_simd = true;
-    const IntegrateStats a = simd.Integrate(depth, camera, pose, &colour);
-    internal::integrate_simd = false;
-    const IntegrateStats b = scalar.Integrate(depth, camera, pose, &colour);
-    internal::integrate_simd = true;
-    EXPECT_GT(a.voxels_updated, 100000);
-    EXPECT_EQ(a.voxels_updated, b.voxels_updated);
-    EXPECT_EQ(a.blocks_visible, b.blocks_visible);
-  }
-  ASSERT_EQ(simd.NumBlocks(), scalar.NumBlocks());
-  int64_t differ = 0, capped = 0, painted = 0;
-  simd.ForEachBlock([&](const VoxelBlock& block) {
-    const VoxelBlock* other = scalar.FindBlock(block.key);
-    ASSERT_NE(other, nullptr);
-    for (int i = 0; i < kBlockVoxels; ++i) {
-      const Voxel &p = block.voxels[i], &q = other->voxels[i];
-      differ += std::memcmp(&p, &q, sizeof(Voxel)) != 0;
-      capped += p.weight() == 3;
-      painted += p.colour_weight > 0;
-    }
-  });
-  EXPECT_EQ(differ, 0);
-  EXPECT_GT(capped, 10000);  // the cap was reached
-  EXPECT_GT(painted, 10000);
-}
-
-bool CpuRunsTheSimdKernel() {
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-  return __builtin_cpu_supports("avx2");
-#else
-  return false;
-#endif
-}
-
 TEST(TsdfIntegrate, SimdKernelWritesTheScalarBits) {
-  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
-  ExpectSimdWritesTheScalarBits(SmallOptions(2));  // surfaces at 1-1.3 m: the fixed 3 cm band
+  if (!test::CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  test::ExpectSimdWritesTheScalarBits(SmallOptions(2));  // surfaces at 1-1.3 m: the fixed 3 cm band
 }
 
 // The band from the depth noise, varying from voxel to voxel: a noise model steep enough
 // that 3σ is 5.8 cm at 1 m and 10 cm at 1.2 m.
 TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithTheNoiseBand) {
-  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  if (!test::CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
   TsdfOptions options = SmallOptions(2);
   options.noise.quadratic_per_m = 0.05;
   ASSERT_GT(options.TruncationAt(1.0f), 0.05f);
-  ExpectSimdWritesTheScalarBits(options);
+  test::ExpectSimdWritesTheScalarBits(options);
 }
 
 // ... and with a rolling-shutter colour camera (a pose per band of rows, gathered per lane).
 TEST(TsdfIntegrate, SimdKernelWritesTheScalarBitsWithARollingShutter) {
-  if (!CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
-  ExpectSimdWritesTheScalarBits(SmallOptions(2), 16);
+  if (!test::CpuRunsTheSimdKernel()) GTEST_SKIP() << "no AVX2 kernel here: only the scalar one runs";
+  test::ExpectSimdWritesTheScalarBits(SmallOptions(2), 16);
   // Rows of 8 voxels mostly within one band (their pose broadcast) and mostly across
   // several (gathered per lane): 55 and 1.7 image rows per band.
-  ExpectSimdWritesTheScalarBits(SmallOptions(2), 2);
-  ExpectSimdWritesTheScalarBits(SmallOptions(2), 64);
+  test::ExpectSimdWritesTheScalarBits(SmallOptions(2), 2);
+  test::ExpectSimdWritesTheScalarBits(SmallOptions(2), 64);
 }
 
 // A rolling-shutter colour camera moving sideways during its readout: band k of its 4 bands
