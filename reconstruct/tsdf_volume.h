@@ -195,9 +195,11 @@ class TsdfVolume {
   // (undistorted, depth_frame.h), 0 = no measurement, seen from world_from_camera. Allocates
   // the blocks within truncation_m of every valid pixel's surface point (between
   // min_depth_m and max_depth_m) and updates every voxel of the blocks in view with the
-  // projective distance (weight +1, capped at max_weight); voxels more than truncation_m
-  // behind the measured surface are left alone. When `colour` is given, voxels within the
-  // band take the colour they project to (weighted running mean, same weights).
+  // projective distance (weight +1, capped at max_weight) — of a block beyond
+  // CoarseBeyondM never seen nearer, its even voxels, the others filled from them
+  // (coarse_far) —; voxels more than their band behind the measured surface are left alone.
+  // When `colour` is given, voxels within the band take the colour they project to
+  // (weighted running mean, same weights).
   // Details (tsdf_integrate.cc): rays are walked for pixels sampled a quarter block apart
   // at the frame's farthest depth (every pixel up to 8 apart); the blocks updated are the
   // ones those rays touched this frame; depth is read bilinearly where the four pixels
