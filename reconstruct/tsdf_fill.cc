@@ -125,10 +125,6 @@ __attribute__((target("avx2"))) void FillOddVoxelsAvx2(Voxel* v) {
   }
 }
 
-bool CpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 #endif
 
 }  // namespace
@@ -161,7 +157,7 @@ void FillOddVoxelsScalar(Voxel* v) {
 
 void FillOddVoxels(Voxel* voxels) {
 #ifdef HW_FILL_AVX2
-  if (CpuHasAvx2() && integrate_simd.load(std::memory_order_relaxed)) {
+  if (UseAvx2Kernels()) {
     FillOddVoxelsAvx2(voxels);
     return;
   }

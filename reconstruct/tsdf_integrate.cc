@@ -552,10 +552,6 @@ __attribute__((target("avx2"))) int UpdateBlockAvx2(const FrameParams& f, const 
   return count;
 }
 
-bool CpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 #endif
 
 }  // namespace
@@ -715,7 +711,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   }
   int (*update_block)(const FrameParams&, const Eigen::Vector3f&, Voxel*, bool) = UpdateBlockScalar;
 #ifdef HW_TSDF_AVX2
-  if (CpuHasAvx2() && internal::integrate_simd.load(std::memory_order_relaxed)) update_block = UpdateBlockAvx2;
+  if (internal::UseAvx2Kernels()) update_block = UpdateBlockAvx2;
 #endif
 
   // Blocks whose centre lies beyond this depth, never seen nearer, are updated coarsely.

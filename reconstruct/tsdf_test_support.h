@@ -104,13 +104,7 @@ inline TsdfOptions SmallOptions(int num_threads = 2) {
 }
 
 // Whether this CPU runs the AVX2 kernels (else only the scalar ones run).
-inline bool CpuRunsTheSimdKernel() {
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-  return __builtin_cpu_supports("avx2");
-#else
-  return false;
-#endif
-}
+inline bool CpuRunsTheSimdKernel() { return internal::CpuHasAvx2(); }
 
 // Integrate has a SIMD kernel (AVX2, where the CPU has it) and the scalar one it replaces
 // where not; both must write the same bits. A scene with what sends voxels down every

@@ -31,6 +31,19 @@ inline bool KeyInRange(int x, int y, int z) {
 // the scalar kernel is the reference the SIMD one must match bit for bit.
 inline std::atomic<bool> integrate_simd{true};
 
+// Whether this CPU has AVX2 (checked once at run time: the binary stays portable).
+inline bool CpuHasAvx2() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+#else
+  return false;
+#endif
+}
+// Whether the TSDF update and fill take their AVX2 kernels: the CPU has AVX2 and
+// integrate_simd allows them.
+inline bool UseAvx2Kernels() { return CpuHasAvx2() && integrate_simd.load(std::memory_order_relaxed); }
+
 // Runs f(0) … f(n − 1), each once, up to n at a time: on the calling thread and the
 // workers of ForEachBand's pool (row_bands.h), each taking the next chunk not yet started —
 // so a worker the scheduler starts late leaves its chunk to the caller instead of holding
