@@ -163,64 +163,142 @@ namespace {
 
 using internal::DepthRanges;
 
-// What every ray of one Raycast() call shares.
+// One ray of a Raycast: its pixel, its direction (camera frame, z = 1) and the depth window
+// it is marched over (m along the optical axis); a hinted ray has a second window (the
+// tile's), marched when the first holds no surface met from the front. An empty window
+// (begin > end) is skipped.
+struct RayTask {
+  int x = 0, y = 0;
+  Eigen::Vector3f in_camera = Eigen::Vector3f::UnitZ();
+  float t_begin = 0, t_end = -1;
+  float t_begin_2 = 0, t_end_2 = -1;
+};
+
+// What every ray of one Raycast() call shares, and the march.
 struct RayMarch {
   Eigen::Matrix3f rotation;  // world_from_camera
   Eigen::Vector3f origin;    // camera centre, world frame (m)
   float truncation_m = 0;
   float min_step = 0;  // RaycastOptions::step_fraction
-  float block_m = 0, inv_voxel_m = 0;
+  float block_m = 0;
   bool with_colour = false;
 
-  // Marches ray_in_camera (camera frame, z = 1) from depth t_begin to t_end (m along the
-  // optical axis) and fills pixel (x, y) of `map` when it meets a surface from the front
-  // (then returns true).
-  bool Cast(int x, int y, const Eigen::Vector3f& ray_in_camera, float t_begin, float t_end,
-            TsdfSampler& sampler, PointMap& map) const {
-    // t is the depth along the optical axis; the world point is origin + t · direction.
-    const Eigen::Vector3f direction = rotation * ray_in_camera;
-    const Eigen::Vector3f inv_direction = direction.cwiseInverse();  // inf where 0: unused
-    const float metres_per_t = ray_in_camera.norm();
-    const float t_per_truncation = truncation_m / metres_per_t;
-    const float t_nudge = 1e-3f * block_m / metres_per_t;
-    float t = t_begin, t_previous = 0, sdf_previous = 0;
-    bool have_previous = false;
-    while (t <= t_end) {
-      const Eigen::Vector3f p = origin + t * direction;
-      float sdf = 0;
-      const TsdfSampler::Status status = sampler.Sample(p, sdf);
-      if (status == TsdfSampler::Status::kNoBlock) {
-        // Nothing until the ray leaves the block of the cell's lowest corner (points from
-        // its first voxel centre to one voxel past its last): jump to that exit.
-        float t_exit = std::numeric_limits<float>::infinity();
-        for (int a = 0; a < 3; ++a) {
-          if (direction[a] == 0) continue;
-          const float k = static_cast<float>(FloorToInt(p[a] * inv_voxel_m) >> kBlockShift);
-          const float face_m = (direction[a] > 0 ? k + 1 : k) * block_m;
-          t_exit = std::min(t_exit, (face_m - origin[a]) * inv_direction[a]);
+  // Rays marched in turn by one thread. A ray's samples depend on each other (each step is
+  // the last sample's distance), and a far sweep's raycast spends most of its time waiting
+  // for the voxel rows of the next sample (README, Reconstruction): so kLanes rays are
+  // marched together, each prefetching its next sample's rows before the other lanes take
+  // their step, and the loads overlap. Each ray takes exactly the samples it would alone
+  // (the lanes share nothing but the volume), so the map does not depend on kLanes.
+  static constexpr int kLanes = 8;
+  struct Lane {
+    explicit Lane(const TsdfVolume& volume) : sampler(volume) {}
+    TsdfSampler sampler;  // per lane: a ray's blocks stay in its own cache
+    RayTask ray;
+    // World frame; p = origin + t · direction, the next sample.
+    Eigen::Vector3f direction = Eigen::Vector3f::Zero(), inv_direction = Eigen::Vector3f::Zero(),
+                    p = Eigen::Vector3f::Zero();
+    TsdfSampler::Cell cell{};  // p's, located (and prefetched) when the lane moved there
+    float t_per_truncation = 0, t_nudge = 0;
+    float t = 0, t_end = 0, t_previous = 0, sdf_previous = 0;
+    bool have_previous = false, second_pending = false, active = false;
+  };
+  enum class Outcome { kGoing, kHit, kMiss };
+
+  // Marches every ray next(RayTask&) hands out (false: none left) and fills their pixels of
+  // `map` where they meet a surface from the front.
+  template <class Next>
+  void MarchAll(const TsdfVolume& volume, Next&& next, PointMap& map) const {
+    std::vector<Lane> lanes(kLanes, Lane(volume));
+    int active = 0;
+    for (Lane& lane : lanes) active += lane.active = Fill(lane, next);
+    while (active > 0) {
+      for (Lane& lane : lanes) {
+        if (!lane.active) continue;
+        const Outcome outcome = Step(lane, map);
+        if (outcome == Outcome::kGoing) continue;
+        if (outcome == Outcome::kMiss && lane.second_pending) {
+          lane.second_pending = false;
+          if (Begin(lane, lane.ray.t_begin_2, lane.ray.t_end_2)) continue;
         }
-        t = std::max(t_exit, t) + t_nudge;
-        have_previous = false;
-        continue;
+        if (!(lane.active = Fill(lane, next))) --active;
       }
-      if (status == TsdfSampler::Status::kUnobserved) {
-        t += min_step * t_per_truncation;
-        have_previous = false;
-        continue;
-      }
-      if (have_previous && sdf_previous > 0 && sdf <= 0) {
-        Hit(x, y, Refine(t_previous, sdf_previous, t, sdf, direction, sampler) * direction + origin, sampler, map);
-        return true;
-      }
-      if (have_previous && sdf_previous < 0 && sdf > 0) return false;  // a surface from behind
-      t_previous = t;
-      sdf_previous = sdf;
-      have_previous = true;
-      // sdf is in units of each reading's band (truncation_m or wider at range: TsdfOptions::
-      // TruncationAt), so sdf · truncation_m never oversteps the distance to the surface.
-      t += std::max(sdf, min_step) * t_per_truncation;
+    }
+  }
+
+  // Starts the next ray with a non-empty window on the lane; false when none is left.
+  template <class Next>
+  bool Fill(Lane& lane, Next& next) const {
+    while (next(lane.ray)) {
+      // t is the depth along the optical axis; the world point is origin + t · direction.
+      lane.direction = rotation * lane.ray.in_camera;
+      lane.inv_direction = lane.direction.cwiseInverse();  // inf where 0: unused
+      const float metres_per_t = lane.ray.in_camera.norm();
+      lane.t_per_truncation = truncation_m / metres_per_t;
+      lane.t_nudge = 1e-3f * block_m / metres_per_t;
+      lane.second_pending = true;
+      if (Begin(lane, lane.ray.t_begin, lane.ray.t_end)) return true;
+      lane.second_pending = false;
+      if (Begin(lane, lane.ray.t_begin_2, lane.ray.t_end_2)) return true;
     }
     return false;
+  }
+
+  // Places the lane at the start of a window and prefetches its first sample; false when
+  // the window is empty.
+  bool Begin(Lane& lane, float t_begin, float t_end) const {
+    if (!(t_begin <= t_end)) return false;
+    lane.t = t_begin;
+    lane.t_end = t_end;
+    lane.have_previous = false;
+    lane.p = origin + lane.t * lane.direction;
+    lane.cell = lane.sampler.Locate(lane.p);
+    lane.sampler.Prefetch(lane.cell);
+    return true;
+  }
+
+  // One sample of the lane's ray at lane.p: a surface met from the front fills the pixel
+  // (kHit); one met from behind, or the window's end, is a kMiss; else the lane moves on to
+  // its next sample and prefetches it.
+  Outcome Step(Lane& lane, PointMap& map) const {
+    float sdf = 0;
+    float& t = lane.t;
+    const TsdfSampler::Status status = lane.sampler.Sample(lane.cell, sdf);
+    if (status == TsdfSampler::Status::kNoBlock) {
+      // Nothing until the ray leaves the block of the cell's lowest corner (points from
+      // its first voxel centre to one voxel past its last): jump to that exit.
+      float t_exit = std::numeric_limits<float>::infinity();
+      for (int a = 0; a < 3; ++a) {
+        if (lane.direction[a] == 0) continue;
+        const int voxel = a == 0 ? lane.cell.ix : a == 1 ? lane.cell.iy : lane.cell.iz;  // floor(p[a] / voxel)
+        const float k = static_cast<float>(voxel >> kBlockShift);
+        const float face_m = (lane.direction[a] > 0 ? k + 1 : k) * block_m;
+        t_exit = std::min(t_exit, (face_m - origin[a]) * lane.inv_direction[a]);
+      }
+      t = std::max(t_exit, t) + lane.t_nudge;
+      lane.have_previous = false;
+    } else if (status == TsdfSampler::Status::kUnobserved) {
+      t += min_step * lane.t_per_truncation;
+      lane.have_previous = false;
+    } else {
+      if (lane.have_previous && lane.sdf_previous > 0 && sdf <= 0) {
+        Hit(lane.ray.x, lane.ray.y,
+            Refine(lane.t_previous, lane.sdf_previous, t, sdf, lane.direction, lane.sampler) * lane.direction + origin,
+            lane.sampler, map);
+        return Outcome::kHit;
+      }
+      if (lane.have_previous && lane.sdf_previous < 0 && sdf > 0) return Outcome::kMiss;  // a surface from behind
+      lane.t_previous = t;
+      lane.sdf_previous = sdf;
+      lane.have_previous = true;
+      // sdf is in units of each reading's band (truncation_m or wider at range: TsdfOptions::
+      // TruncationAt), so sdf · truncation_m never oversteps the distance to the surface.
+      t += std::max(sdf, min_step) * lane.t_per_truncation;
+    }
+    if (!(t <= lane.t_end)) return Outcome::kMiss;
+    lane.p = origin + t * lane.direction;
+    lane.cell = lane.sampler.Locate(lane.p);
+    lane.sampler.Prefetch(lane.cell);
+    return Outcome::kGoing;
   }
 
   // The zero between ta (sdf sa > 0) and tb (sb <= 0): regula falsi on the trilinear field,
@@ -269,7 +347,6 @@ RayMarch MakeMarch(const TsdfVolume& volume, const core::Rigid3d& world_from_cam
   march.truncation_m = static_cast<float>(volume.options().truncation_m);
   march.min_step = static_cast<float>(options.step_fraction);
   march.block_m = volume.voxel_size_m() * kBlockSide;
-  march.inv_voxel_m = 1.0f / volume.voxel_size_m();
   march.with_colour = options.with_colour;
   return march;
 }
@@ -295,23 +372,39 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
   // 600 KB: more than a core's share of cache on a loaded machine).
   const int num_threads = std::min(ResolveThreads(options.num_threads), ranges.tiles_y);
   internal::RunChunks(num_threads, [&](int chunk) {
-    TsdfSampler sampler(volume);
-    for (int ty = chunk; ty < ranges.tiles_y; ty += num_threads) {
-      for (int tx = 0; tx < ranges.tiles_x; ++tx) {
-        const size_t tile = size_t(ty) * ranges.tiles_x + tx;
-        const float t_begin = ranges.near_m[tile], t_end = ranges.far_m[tile];
-        if (!(t_begin <= t_end)) continue;  // no block projects here
-        const int y_end = std::min(camera.height, (ty + 1) * kTile);
-        const int x_end = std::min(camera.width, (tx + 1) * kTile);
-        for (int y = ty * kTile; y < y_end; ++y) {
-          for (int x = tx * kTile; x < x_end; ++x) {
-            const Eigen::Vector3f ray_in_camera((static_cast<float>(x) - camera.cx) / camera.fx,
-                                                (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
-            march.Cast(x, y, ray_in_camera, t_begin, t_end, sampler, map);
-          }
-        }
+    // The thread's pixels in tile order: tiles ty = chunk, chunk + num_threads, ... row by
+    // row, the pixels of a tile row by row; tiles no block projects on are skipped.
+    int ty = chunk, tx = -1, x = 0, y = 0, x_end = 0, y_end = 0;
+    float t_begin = 0, t_end = -1;
+    auto next = [&](RayTask& ray) {
+      if (++x == x_end) {
+        x = tx * kTile;
+        ++y;
       }
-    }
+      while (y >= y_end) {  // the next tile with a depth range
+        if (++tx == ranges.tiles_x) {
+          tx = 0;
+          ty += num_threads;
+        }
+        if (ty >= ranges.tiles_y) return false;
+        const size_t tile = size_t(ty) * ranges.tiles_x + tx;
+        t_begin = ranges.near_m[tile];
+        t_end = ranges.far_m[tile];
+        if (!(t_begin <= t_end)) continue;  // no block projects here
+        x = tx * kTile;
+        y = ty * kTile;
+        x_end = std::min(camera.width, (tx + 1) * kTile);
+        y_end = std::min(camera.height, (ty + 1) * kTile);
+      }
+      ray.x = x;
+      ray.y = y;
+      ray.in_camera = Eigen::Vector3f((static_cast<float>(x) - camera.cx) / camera.fx,
+                                      (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
+      ray.t_begin = t_begin;
+      ray.t_end = t_end;
+      return true;
+    };
+    march.MarchAll(volume, next, map);
   });
   return map;
 }
@@ -342,40 +435,54 @@ PointMap CastRays(const TsdfVolume& volume, const CameraRays& rays, const core::
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
   const int num_threads = std::min(ResolveThreads(options.num_threads), tiles_y);
   internal::RunChunks(num_threads, [&](int chunk) {
-    TsdfSampler sampler(volume);
-    for (int ty = chunk; ty < tiles_y; ty += num_threads) {
-      for (int tx = 0; tx < tiles_x; ++tx) {
-        const int y_end = std::min(height, (ty + 1) * kTile);
-        const int x_end = std::min(width, (tx + 1) * kTile);
-        for (int y = ty * kTile; y < y_end; ++y) {
-          for (int x = tx * kTile; x < x_end; ++x) {
-            if (!rays.valid(x, y)) continue;
-            const Eigen::Vector2f xy = rays.xy(x, y);
-            const Eigen::Vector3f ray_in_camera(xy.x(), xy.y(), 1.0f);
-            if (hints) {
-              const float range_m = hints->range_m[size_t(y) * width + x];
-              if (range_m > 0 && std::isfinite(range_m)) {
-                // Range to depth along the optical axis: / |ray| (z = 1).
-                const float metres_per_t = ray_in_camera.norm();
-                const float t_hint = range_m / metres_per_t;
-                const float t_begin = std::max(t_hint - band.At(t_hint) / metres_per_t, min_depth_m);
-                const float behind_m = std::max(hints->behind_m, hints->behind_fraction * range_m);
-                const float t_end = std::min(t_hint + behind_m / metres_per_t, max_depth_m);
-                if (t_begin <= t_end && march.Cast(x, y, ray_in_camera, t_begin, t_end, sampler, map)) continue;
-              }
-            }
-            // Its covering tile, as ProjectBlocks assigns pixels to tiles (nearest pixel).
-            const Eigen::Vector2f uv = rays.covering_pixel(x, y);
-            const int tile_x = FloorToInt(uv.x() + 0.5f) / kTile, tile_y = FloorToInt(uv.y() + 0.5f) / kTile;
-            assert(tile_x >= 0 && tile_y >= 0 && tile_x < ranges.tiles_x && tile_y < ranges.tiles_y);
-            const size_t tile = size_t(tile_y) * ranges.tiles_x + tile_x;
-            const float t_begin = ranges.near_m[tile], t_end = ranges.far_m[tile];
-            if (!(t_begin <= t_end)) continue;  // no block projects there
-            march.Cast(x, y, ray_in_camera, t_begin, t_end, sampler, map);
+    // The thread's pixels with a ray, in tile order as the pinhole overload's.
+    int ty = chunk, tx = -1, x = 0, y = 0, x_end = 0, y_end = 0;
+    auto next = [&](RayTask& ray) {
+      do {
+        if (++x == x_end) {
+          x = tx * kTile;
+          ++y;
+        }
+        if (y >= y_end) {  // the next tile
+          if (++tx == tiles_x) {
+            tx = 0;
+            ty += num_threads;
           }
+          if (ty >= tiles_y) return false;
+          x = tx * kTile;
+          y = ty * kTile;
+          x_end = std::min(width, (tx + 1) * kTile);
+          y_end = std::min(height, (ty + 1) * kTile);
+        }
+      } while (!rays.valid(x, y));
+      ray.x = x;
+      ray.y = y;
+      const Eigen::Vector2f xy = rays.xy(x, y);
+      ray.in_camera = Eigen::Vector3f(xy.x(), xy.y(), 1.0f);
+      ray.t_begin = 0;
+      ray.t_end = -1;
+      if (hints) {
+        const float range_m = hints->range_m[size_t(y) * width + x];
+        if (range_m > 0 && std::isfinite(range_m)) {
+          // Range to depth along the optical axis: / |ray| (z = 1).
+          const float metres_per_t = ray.in_camera.norm();
+          const float t_hint = range_m / metres_per_t;
+          ray.t_begin = std::max(t_hint - band.At(t_hint) / metres_per_t, min_depth_m);
+          const float behind_m = std::max(hints->behind_m, hints->behind_fraction * range_m);
+          ray.t_end = std::min(t_hint + behind_m / metres_per_t, max_depth_m);
         }
       }
-    }
+      // Then its covering tile's range, as ProjectBlocks assigns pixels to tiles (nearest
+      // pixel); empty where no block projects.
+      const Eigen::Vector2f uv = rays.covering_pixel(x, y);
+      const int tile_x = FloorToInt(uv.x() + 0.5f) / kTile, tile_y = FloorToInt(uv.y() + 0.5f) / kTile;
+      assert(tile_x >= 0 && tile_y >= 0 && tile_x < ranges.tiles_x && tile_y < ranges.tiles_y);
+      const size_t tile = size_t(tile_y) * ranges.tiles_x + tile_x;
+      ray.t_begin_2 = ranges.near_m[tile];
+      ray.t_end_2 = ranges.far_m[tile];
+      return true;
+    };
+    march.MarchAll(volume, next, map);
   });
   return map;
 }

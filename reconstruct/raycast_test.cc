@@ -239,6 +239,46 @@ TEST(Raycast, ColourAndThreadCounts) {
   EXPECT_GT(painted, 0.9 * one.NumValid());
 }
 
+// Rays are marched several at a time per thread, in turn (RayMarch::kLanes), and which rays
+// share a thread's lanes depends on the thread count: a ray that read another's state would
+// change with it. A sphere before a wall, cast from beside the fusing pose with a camera
+// whose size is not a multiple of the 8-pixel tiles (the last tile column and row are
+// partial) on 1, 2, 3 and 7 threads: the same bits everywhere, and the partial tiles' pixels
+// cast (the wall fills the view).
+TEST(Raycast, RaysMarchedTogetherGiveTheSameMapOnAnyThreadCount) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  cv::Mat depth = test::RenderPlane(camera, pose, Eigen::Vector3d::UnitZ(), 1.2);
+  const cv::Mat sphere = test::RenderSphere(camera, pose, {0.05, 0, 0.9}, 0.2);
+  sphere.copyTo(depth, sphere > 0);  // 0 where the ray misses the sphere
+  TsdfVolume volume(SmallOptions());
+  volume.Integrate(depth, camera, pose);
+  // Narrower than the fusing camera (f 150 vs 120): every ray stays inside the fused view.
+  const PinholeCamera odd{157, 117, 150.0f, 150.0f, 78.0f, 58.0f};
+  const core::Rigid3d cast_pose = LookAt({0.03, -0.02, 0.02}, {0.02, 0, 1.0});
+  RaycastOptions options = Options(1);
+  options.with_colour = true;
+  const PointMap one = Raycast(volume, odd, cast_pose, options);
+  EXPECT_GT(one.NumValid(), 0.95 * odd.width * odd.height);
+  int last_column = 0, last_row = 0;
+  for (int y = 0; y < odd.height; ++y) last_column += IsValid(one.points[one.Index(odd.width - 1, y)]);
+  for (int x = 0; x < odd.width; ++x) last_row += IsValid(one.points[one.Index(x, odd.height - 1)]);
+  EXPECT_GT(last_column, 0.9 * odd.height);
+  EXPECT_GT(last_row, 0.9 * odd.width);
+  for (int threads : {2, 3, 7}) {
+    options.num_threads = threads;
+    const PointMap other = Raycast(volume, odd, cast_pose, options);
+    int differing = 0;
+    for (size_t i = 0; i < one.points.size(); ++i) {
+      // Bitwise: NaN (invalid) equals NaN.
+      differing += std::memcmp(&one.points[i], &other.points[i], sizeof(Eigen::Vector3f)) != 0 ||
+                   std::memcmp(&one.normals[i], &other.normals[i], sizeof(Eigen::Vector3f)) != 0 ||
+                   one.colours[i] != other.colours[i];
+    }
+    EXPECT_EQ(differing, 0) << threads << " threads";
+  }
+}
+
 // Projecting only the blocks of regions in view gives the very same depth ranges as
 // projecting every block: blocks scattered all around the camera (behind it, beside it,
 // straddling its plane, beyond both depth limits), seen from several poses.
