@@ -329,7 +329,7 @@ size_t TsdfVolume::MemoryBytes() const {
   // Blocks, the block pointer and stamp arrays, and the hash table's slots (key and index)
   // and control bytes (one per slot).
   return impl_->blocks.size() * (sizeof(VoxelBlock) + sizeof(void*) + sizeof(uint32_t)) +
-         impl_->index.capacity() * (sizeof(std::pair<uint64_t, int32_t>) + 1);
+         impl_->index.capacity() * (sizeof(std::pair<uint64_t, Impl::Entry>) + 1);
 }
 
 void TsdfVolume::ForEachBlock(const std::function<void(const VoxelBlock&)>& f) const {
