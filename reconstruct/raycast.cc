@@ -184,8 +184,8 @@ struct RayMarch {
   bool with_colour = false;
 
   // Rays marched in turn by one thread. A ray's samples depend on each other (each step is
-  // the last sample's distance), and a far sweep's raycast spends most of its time waiting
-  // for the voxel rows of the next sample (README, Reconstruction): so kLanes rays are
+  // the last sample's distance), and a far sweep's raycast spent a quarter of its march
+  // waiting for a sample's first voxel row (README, Reconstruction): so kLanes rays are
   // marched together, each prefetching its next sample's rows before the other lanes take
   // their step, and the loads overlap. Each ray takes exactly the samples it would alone
   // (the lanes share nothing but the volume), so the map does not depend on kLanes.

@@ -35,8 +35,10 @@ struct RaycastOptions {
 // depth by up to half a voxel and make frame-to-model tracking drift: interpolation is required.
 // Details (raycast.cc): rays only span the depths where allocated blocks project (per 8×8
 // pixel tile); the crossing is refined by regula falsi on the trilinear field (to 0.005 of
-// truncation_m); rows of tiles are split in num_threads bands. A point may have an invalid
-// normal where the 32 voxels of NormalAt are not all observed (rim of the observed surface).
+// truncation_m); rows of tiles are dealt to num_threads threads, each marching eight rays
+// in turn with their next samples prefetched (the map does not depend on either). A point
+// may have an invalid normal where the 32 voxels of NormalAt are not all observed (rim of
+// the observed surface).
 PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
                  const core::Rigid3d& world_from_camera, const RaycastOptions& options);
 
