@@ -47,11 +47,14 @@ namespace {
 // Appends the keys of the blocks a segment (block units, a to b) passes through, in order
 // (Amanatides & Woo 1987 grid traversal), skipping those already appended among a few
 // recent ones: the segments of neighbouring pixels mostly cross the same blocks. The recent
-// ones are kept one per position of the key modulo 16 along each axis, so any 16×16×16
-// group of neighbouring blocks (64 cm at 5 mm voxels) is remembered whole and a lookup is
-// one comparison: the next row of pixels finds most of its blocks still there (with 4×4×4,
-// 6× as many keys reached the serial pass on eq3). (Only which duplicates reach the list
-// depends on it; the serial pass drops the rest, keeping the order of first appearance.)
+// ones are kept in a direct-mapped table of 16 384 keys indexed by a multiplicative hash of
+// the key, so a lookup is one comparison and the next row of pixels finds most of its
+// blocks still there. (Stop 53: the table was 4096 keys, one per position of the key
+// modulo 16 along each axis — a 64 cm cube; a far view's row of pixels spans metres, and
+// on the 10 s `building` sweep 3.3 keys per visible block reached the serial pass, 1.1 now,
+// which took it from 4.6 to 3.3 ms per integration. With 4×4×4
+// before that, 6× as many keys on eq3.) Only which duplicates reach the list depends on it;
+// the serial pass drops the rest, keeping the order of first appearance.
 class SegmentBlocks {
  public:
   explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) { recent_.fill(~uint64_t{0}); }
@@ -91,14 +94,15 @@ class SegmentBlocks {
   void Add(int x, int y, int z) {
     if (!KeyInRange(x, y, z)) return;
     const uint64_t key = PackKey(x, y, z);
-    uint64_t& slot = recent_[(x & 15) | ((y & 15) << 4) | ((z & 15) << 8)];
+    uint64_t& slot = recent_[(key * 0x9E3779B97F4A7C15ull) >> (64 - kRecentBits)];  // Fibonacci hashing
     if (slot == key) return;
     slot = key;
     out_.push_back(key);
   }
 
   std::vector<uint64_t>& out_;
-  std::array<uint64_t, 4096> recent_;  // ~0: no valid packed key has all 64 bits set
+  static constexpr int kRecentBits = 14;
+  std::array<uint64_t, size_t{1} << kRecentBits> recent_;  // ~0: no valid packed key has all 64 bits set
 };
 
 BlockKey Unpack(uint64_t key) {
@@ -630,8 +634,13 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   visible.clear();
   fresh.clear();
   const size_t blocks_before = impl.blocks.size();
+  // Each key's hash table entry is fetched a few keys ahead: the lookups are independent
+  // (3.3 → 3.0 ms per integration on that sweep).
+  constexpr size_t kLookAhead = 8;
   for (const auto& chunk_keys : keys) {
-    for (const uint64_t key : chunk_keys) {
+    for (size_t k = 0; k < chunk_keys.size(); ++k) {
+      if (k + kLookAhead < chunk_keys.size()) impl.index.prefetch(chunk_keys[k + kLookAhead]);
+      const uint64_t key = chunk_keys[k];
       bool created = false;
       const int32_t index = impl.GetOrAllocate(key, created);
       if (impl.visit_stamp[index] == stamp) continue;
