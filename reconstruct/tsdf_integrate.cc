@@ -52,9 +52,9 @@ namespace {
 // blocks still there. (Stop 53: the table was 4096 keys, one per position of the key
 // modulo 16 along each axis — a 64 cm cube; a far view's row of pixels spans metres, and
 // on the 10 s `building` sweep 3.3 keys per visible block reached the serial pass, 1.1 now,
-// which took it from 4.6 to 3.3 ms per integration. With 4×4×4
-// before that, 6× as many keys on eq3.) Only which duplicates reach the list depends on it;
-// the serial pass drops the rest, keeping the order of first appearance.
+// which took it from 4.6 to 3.3 ms per integration. With 4×4×4 before that, 6× as many
+// keys on eq3.) Only which duplicates reach the list depends on it; the serial pass drops
+// the rest, keeping the order of first appearance.
 class SegmentBlocks {
  public:
   explicit SegmentBlocks(std::vector<uint64_t>& out) : out_(out) { recent_.fill(~uint64_t{0}); }
@@ -635,7 +635,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   fresh.clear();
   const size_t blocks_before = impl.blocks.size();
   // Each key's hash table entry is fetched a few keys ahead: the lookups are independent
-  // (3.3 → 3.0 ms per integration on that sweep).
+  // (3.3 → 3.0 ms per integration on the 10 s `building` sweep).
   constexpr size_t kLookAhead = 8;
   for (const auto& chunk_keys : keys) {
     for (size_t k = 0; k < chunk_keys.size(); ++k) {
