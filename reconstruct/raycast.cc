@@ -338,6 +338,46 @@ struct RayMarch {
   }
 };
 
+// One thread's pixels of a width × height image in tile order: the rows of kTile × kTile
+// tiles ty = first_tile_row, first_tile_row + tile_row_step, …, each row's tiles left to
+// right, each tile's pixels row by row (consecutive rays then read the same few blocks while
+// they are in cache). Tiles that keep_tile(tx, ty) refuses are skipped.
+class TilePixels {
+ public:
+  TilePixels(int width, int height, int first_tile_row, int tile_row_step)
+      : width_(width), height_(height), tiles_x_((width + kTile - 1) / kTile),
+        tiles_y_((height + kTile - 1) / kTile), step_(tile_row_step), ty_(first_tile_row) {}
+  // The next pixel (x, y); false when none is left.
+  template <class KeepTile>
+  bool Next(int& x, int& y, const KeepTile& keep_tile) {
+    if (++x_ == x_end_) {
+      x_ = tx_ * kTile;
+      ++y_;
+    }
+    while (y_ >= y_end_) {  // the next tile kept
+      if (++tx_ == tiles_x_) {
+        tx_ = 0;
+        ty_ += step_;
+      }
+      if (ty_ >= tiles_y_) return false;
+      if (!keep_tile(tx_, ty_)) continue;
+      x_ = tx_ * kTile;
+      y_ = ty_ * kTile;
+      x_end_ = std::min(width_, (tx_ + 1) * kTile);
+      y_end_ = std::min(height_, (ty_ + 1) * kTile);
+    }
+    x = x_;
+    y = y_;
+    return true;
+  }
+  int tile_x() const { return tx_; }
+  int tile_y() const { return ty_; }
+
+ private:
+  int width_, height_, tiles_x_, tiles_y_, step_;
+  int tx_ = -1, ty_, x_ = 0, y_ = 0, x_end_ = 0, y_end_ = 0;
+};
+
 // The march shared by both overloads.
 RayMarch MakeMarch(const TsdfVolume& volume, const core::Rigid3d& world_from_camera,
                    const RaycastOptions& options) {
@@ -372,36 +412,22 @@ PointMap Raycast(const TsdfVolume& volume, const PinholeCamera& camera,
   // 600 KB: more than a core's share of cache on a loaded machine).
   const int num_threads = std::min(ResolveThreads(options.num_threads), ranges.tiles_y);
   internal::RunChunks(num_threads, [&](int chunk) {
-    // The thread's pixels in tile order: tiles ty = chunk, chunk + num_threads, ... row by
-    // row, the pixels of a tile row by row; tiles no block projects on are skipped.
-    int ty = chunk, tx = -1, x = 0, y = 0, x_end = 0, y_end = 0;
-    float t_begin = 0, t_end = -1;
+    // The thread's pixels in tile order; tiles no block projects on are skipped.
+    TilePixels pixels(camera.width, camera.height, chunk, num_threads);
+    auto has_range = [&](int tx, int ty) {
+      const size_t tile = size_t(ty) * ranges.tiles_x + tx;
+      return ranges.near_m[tile] <= ranges.far_m[tile];
+    };
     auto next = [&](RayTask& ray) {
-      if (++x == x_end) {
-        x = tx * kTile;
-        ++y;
-      }
-      while (y >= y_end) {  // the next tile with a depth range
-        if (++tx == ranges.tiles_x) {
-          tx = 0;
-          ty += num_threads;
-        }
-        if (ty >= ranges.tiles_y) return false;
-        const size_t tile = size_t(ty) * ranges.tiles_x + tx;
-        t_begin = ranges.near_m[tile];
-        t_end = ranges.far_m[tile];
-        if (!(t_begin <= t_end)) continue;  // no block projects here
-        x = tx * kTile;
-        y = ty * kTile;
-        x_end = std::min(camera.width, (tx + 1) * kTile);
-        y_end = std::min(camera.height, (ty + 1) * kTile);
-      }
+      int x, y;
+      if (!pixels.Next(x, y, has_range)) return false;
+      const size_t tile = size_t(pixels.tile_y()) * ranges.tiles_x + pixels.tile_x();
       ray.x = x;
       ray.y = y;
       ray.in_camera = Eigen::Vector3f((static_cast<float>(x) - camera.cx) / camera.fx,
                                       (static_cast<float>(y) - camera.cy) / camera.fy, 1.0f);
-      ray.t_begin = t_begin;
-      ray.t_end = t_end;
+      ray.t_begin = ranges.near_m[tile];
+      ray.t_end = ranges.far_m[tile];
       return true;
     };
     march.MarchAll(volume, next, map);
@@ -432,28 +458,15 @@ PointMap CastRays(const TsdfVolume& volume, const CameraRays& rays, const core::
 
   // As the pinhole overload, in tiles of the distorted image: neighbouring pixels have
   // neighbouring rays, whatever the lens, so the cache locality holds.
-  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  const int num_threads = std::min(ResolveThreads(options.num_threads), tiles_y);
+  const int num_threads = std::min(ResolveThreads(options.num_threads), (height + kTile - 1) / kTile);
   internal::RunChunks(num_threads, [&](int chunk) {
     // The thread's pixels with a ray, in tile order as the pinhole overload's.
-    int ty = chunk, tx = -1, x = 0, y = 0, x_end = 0, y_end = 0;
+    TilePixels pixels(width, height, chunk, num_threads);
+    auto every_tile = [](int, int) { return true; };
     auto next = [&](RayTask& ray) {
+      int x, y;
       do {
-        if (++x == x_end) {
-          x = tx * kTile;
-          ++y;
-        }
-        if (y >= y_end) {  // the next tile
-          if (++tx == tiles_x) {
-            tx = 0;
-            ty += num_threads;
-          }
-          if (ty >= tiles_y) return false;
-          x = tx * kTile;
-          y = ty * kTile;
-          x_end = std::min(width, (tx + 1) * kTile);
-          y_end = std::min(height, (ty + 1) * kTile);
-        }
+        if (!pixels.Next(x, y, every_tile)) return false;
       } while (!rays.valid(x, y));
       ray.x = x;
       ray.y = y;

@@ -169,13 +169,12 @@ std::optional<Rgb8> TsdfVolume::ColourAt(const Eigen::Vector3f& point_in_world) 
 
 TsdfSampler::Status TsdfSampler::Corners(const Eigen::Vector3f& point_in_world,
                                          std::array<const Voxel*, 8>& corners, Eigen::Vector3f& fraction) {
-  const Eigen::Vector3f g = point_in_world * inv_voxel_m_;
-  const int ix = FloorToInt(g.x()), iy = FloorToInt(g.y()), iz = FloorToInt(g.z());
-  fraction = g - Eigen::Vector3f(static_cast<float>(ix), static_cast<float>(iy), static_cast<float>(iz));
-  if (Block(ix >> kBlockShift, iy >> kBlockShift, iz >> kBlockShift) == nullptr) return Status::kNoBlock;
+  const Cell cell = Locate(point_in_world);
+  fraction = Eigen::Vector3f(cell.fx, cell.fy, cell.fz);
+  if (cell.block == nullptr) return Status::kNoBlock;
   const int m = kBlockSide - 1;
   for (int c = 0; c < 8; ++c) {
-    const int x = ix + (c & 1), y = iy + ((c >> 1) & 1), z = iz + (c >> 2);
+    const int x = cell.ix + (c & 1), y = cell.iy + ((c >> 1) & 1), z = cell.iz + (c >> 2);
     const VoxelBlock* b = Block(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift);
     if (b == nullptr) return Status::kUnobserved;
     corners[c] = &b->voxels[(x & m) + kBlockSide * ((y & m) + kBlockSide * (z & m))];
@@ -326,8 +325,8 @@ bool TsdfSampler::Colour(const Eigen::Vector3f& point_in_world, Rgb8& colour) {
 size_t TsdfVolume::NumBlocks() const { return impl_->blocks.size(); }
 
 size_t TsdfVolume::MemoryBytes() const {
-  // Blocks, the block pointer and stamp arrays, and the hash table's slots (key and index)
-  // and control bytes (one per slot).
+  // Blocks, the block pointer and stamp arrays, and the hash table's slots (key, block
+  // address and index) and control bytes (one per slot).
   return impl_->blocks.size() * (sizeof(VoxelBlock) + sizeof(void*) + sizeof(uint32_t)) +
          impl_->index.capacity() * (sizeof(std::pair<uint64_t, Impl::Entry>) + 1);
 }
