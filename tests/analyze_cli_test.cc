@@ -19,7 +19,7 @@ using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
 Result Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 
 hw::core::PlyMesh Plate(bool with_temperature = true) { return hw::analyze::test::HotDiscPlate(with_temperature); }

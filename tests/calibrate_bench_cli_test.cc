@@ -25,7 +25,7 @@ using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 using nlohmann::json;
 
-Result Heatwave(const std::string& args) { return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args); }
+Result Heatwave(const std::string& args) { return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args); }
 
 json ReadJson(const fs::path& path) { return json::parse(hw::core::ReadFile(path, uint64_t{1} << 26)); }
 

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
-Result Heatwave(const std::string& args) { return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args); }
+Result Heatwave(const std::string& args) { return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args); }
 
 std::string Read(const fs::path& path) { return hw::core::ReadFile(path, uint64_t{1} << 28); }
 

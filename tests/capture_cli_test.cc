@@ -26,8 +26,9 @@ using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
 // heatwave with the test OpenNI2 runtime first on the library path.
-std::string Exe() { return std::string("LD_LIBRARY_PATH=") + HW_OPENNI_TEST_RUNTIME + " " + HW_HEATWAVE_EXE; }
-Result Heatwave(const std::string& args) { return hw::test::RunCommand(Exe() + " " + args); }
+Result Heatwave(const std::string& args) {
+  return hw::test::RunCommand("LD_LIBRARY_PATH=" HW_OPENNI_TEST_RUNTIME " " HW_HEATWAVE_EXE " " + args);
+}
 
 fs::path WriteTestRig(const fs::path& folder) {
   const fs::path path = folder / "rig.yaml";

@@ -18,13 +18,13 @@ using Result = hw::test::CommandResult;
 
 // Runs the heatwave executable with `args` (already shell-quoted where needed).
 Result Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 
 // The same with stdout sent to `redirect` (e.g. ">/dev/full"); the output is stderr only.
 // The subshell keeps stderr on the pipe RunCommand reads.
 Result HeatwaveStdoutTo(const std::string& args, const std::string& redirect) {
-  return hw::test::RunCommand("(" + std::string(HW_HEATWAVE_EXE) + " " + args + " " + redirect +
+  return hw::test::RunCommand("(" HW_HEATWAVE_EXE " " + args + " " + redirect +
                               ")");
 }
 

@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
-Result Heatwave(const std::string& args) { return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args); }
+Result Heatwave(const std::string& args) { return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args); }
 
 // A disc of temperature on the surface: `peak_c` inside radius_m of centre, a smooth
 // 8 mm-scale logistic edge (iso-line at the half level on the radius: the half-ΔT boundary

@@ -17,7 +17,7 @@ using hw::test::CountLines;
 using Result = hw::test::CommandResult;
 
 Result Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 
 std::string Quote(const fs::path& path) { return "'" + path.string() + "'"; }

@@ -24,7 +24,7 @@ using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
 Result Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 
 // Options of every run here: the test scans' 160×120 wants 1 cm voxels.

@@ -26,7 +26,7 @@ using hw::test::TestFolder;
 using Result = hw::test::CommandResult;
 
 Result Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 
 const std::string kOptions = " --voxel-size 0.01 -q";

@@ -23,7 +23,7 @@ using hw::test::FreshPath;
 
 // Runs the heatwave executable with `args` (already shell-quoted where needed).
 hw::test::CommandResult Heatwave(const std::string& args) {
-  return hw::test::RunCommand(std::string(HW_HEATWAVE_EXE) + " " + args);
+  return hw::test::RunCommand(HW_HEATWAVE_EXE " " + args);
 }
 using hw::core::Stream;
 
