@@ -1,8 +1,10 @@
 // bench_depth_oracle_rig IN_RIG OUT_RIG [--nx N --ny N] [--no-affine]: writes IN_RIG with the
 // fixtures' TRUE depth correction (fixtures::TrueDepthCorrection of the default depth sensor,
 // the one every synthetic scan and session renders with) — the oracle that
-// bench/depth_correction.sh compares `heatwave calibrate depth` against. --no-affine removes
-// the field's affine part over the image's pixels, which no wall recording can observe.
+// bench/depth_correction.sh compares `heatwave calibrate depth` against. Its affine part over
+// the image's pixels is recorded as measured (plate_affine_per_m), as after `calibrate
+// extrinsics`; --no-affine removes that part instead, which no wall recording can observe.
+#include <array>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -33,8 +35,8 @@ int main(int argc, char** argv) {
   try {
     core::Rig rig = core::ReadRig(argv[1]);
     core::DepthCorrection c = fixtures::TrueDepthCorrection(fixtures::DepthSensorOptions(), rig.depth, nx, ny);
-    if (no_affine) {
-      // Least squares of 1, x, y over the pixels' rays (every 4th), subtracted at the nodes.
+    {
+      // The field's affine part: least squares of 1, x, y over the pixels' rays (every 4th).
       Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
       Eigen::Vector3d b = Eigen::Vector3d::Zero();
       for (int v = 0; v < rig.depth.height; v += 4) {
@@ -47,11 +49,19 @@ int main(int argc, char** argv) {
         }
       }
       const Eigen::Vector3d p = a.ldlt().solve(b);
-      std::printf("affine part removed: %.6f %+.6f x %+.6f y (1/m)\n", p(0), p(1), p(2));
-      for (int k = 0; k < nx * ny; ++k) {
-        const double x = c.x_range[0] + (c.x_range[1] - c.x_range[0]) * (k % nx) / (nx - 1);
-        const double y = c.y_range[0] + (c.y_range[1] - c.y_range[0]) * (k / nx) / (ny - 1);
-        c.offset_per_m[k] -= p(0) + p(1) * x + p(2) * y;
+      if (no_affine) {
+        std::printf("affine part removed: %.6f %+.6f x %+.6f y (1/m)\n", p(0), p(1), p(2));
+        for (int k = 0; k < nx * ny; ++k) {
+          const double x = c.x_range[0] + (c.x_range[1] - c.x_range[0]) * (k % nx) / (nx - 1);
+          const double y = c.y_range[0] + (c.y_range[1] - c.y_range[0]) * (k / nx) / (ny - 1);
+          c.offset_per_m[k] -= p(0) + p(1) * x + p(2) * y;
+        }
+      } else {
+        // Known exactly, so recorded as measured, as `calibrate extrinsics` records the part
+        // its plate measured: the oracle stands for a fully calibrated sensor, and
+        // `reconstruct` treats its depth as such (ICP's noise gate on by default).
+        c.plate_affine_per_m = std::array<double, 3>{p(0), p(1), p(2)};
+        std::printf("affine part (measured): %.6f %+.6f x %+.6f y (1/m)\n", p(0), p(1), p(2));
       }
     }
     rig.depth_correction = c;

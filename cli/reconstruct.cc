@@ -114,6 +114,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_condition_ratio", r.max_condition_ratio)
       .Int("num_threads", r.num_threads)
       .Bool("start_at_groundtruth", o.scan.start_at_groundtruth)
+      .Bool("regularise_stamps", o.regularise_stamps)
+      .Number("stamp_window_s", o.stamps.window_s)
       .String("poses", o.poses_path.string())
       .Int("first_frame", o.scan.first_frame)
       .Int("max_frames", o.scan.max_frames)
@@ -227,6 +229,20 @@ std::string ReportJson(const ReconstructCommandOptions& options, const core::Sca
     frames.push_back(FrameJson(reconstruction.frames()[i], run.depth_frame_index[i]));
   }
   for (const std::string& w : r.warnings) warnings.push_back(core::JsonString(w));
+  // Each stream's frame clock (core/frame_clock.h): whether its stamps were replaced by
+  // fitted exposure times, and what the fit measured.
+  JsonObject stamps;
+  for (const core::Stream stream : {core::Stream::kDepth, core::Stream::kRgb, core::Stream::kThermal}) {
+    if (scan.NumFrames(stream) == 0) continue;
+    const core::StampFit& f = scan.StampRegularisation(stream);
+    JsonObject o;
+    o.Bool("regularised", f.applied).String("reason", f.reason).Number("period_s", f.period_s)
+        .Number("jitter_s", f.jitter_s).Number("time_std_s", f.time_std_s).Number("max_shift_s", f.max_shift_s)
+        .Int("outliers", f.outliers).Int("empty_slots", f.empty_slots).Int("segments", f.segments)
+        .Int("unfitted", f.unfitted);
+    stamps.Add(core::StreamName(stream), o.str());
+  }
+  input.Add("stamps", stamps.str());
   JsonObject all;
   all.String("command", "heatwave reconstruct")
       .Add("input", input.str())
@@ -273,6 +289,7 @@ std::string ReconstructCommandOptions::Check() const {
   if (out_folder.empty()) return "--out: must be given";
   if (std::string m = reconstruction.Check(); !m.empty()) return m;
   if (std::string m = thermal_fusion.Check(); !m.empty()) return "thermal." + m;
+  if (std::string m = stamps.Check(); !m.empty()) return "stamps." + m;
   if (icp_noise_gate_sigmas && !(*icp_noise_gate_sigmas >= 0 && *icp_noise_gate_sigmas <= 10)) {
     return core::OptionFail("icp_noise_gate_sigmas", *icp_noise_gate_sigmas, "in [0, 10]");
   }
@@ -302,6 +319,8 @@ ReconstructCommandResult RunReconstruction(const ReconstructCommandOptions& opti
   const auto start = std::chrono::steady_clock::now();
   core::ScanOptions scan_options;
   scan_options.rig_path = options.rig_path;
+  scan_options.regularise_stamps = options.regularise_stamps;
+  scan_options.stamps = options.stamps;
   const core::Scan scan = core::Scan::Open(options.scan_folder, scan_options);
   ReconstructCommandOptions resolved = options;
   // One depth-noise model: ICP's gate uses the TSDF band's. The gate pays only where far
@@ -354,6 +373,17 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   ReconstructCommandResult r;
   r.out_folder = options.out_folder;
   for (const std::string& w : scan.warnings()) r.warnings.push_back(w);
+  if (options.regularise_stamps) {
+    for (const core::Stream stream : {core::Stream::kDepth, core::Stream::kRgb, core::Stream::kThermal}) {
+      if (scan.NumFrames(stream) == 0) continue;
+      const core::StampFit& f = scan.StampRegularisation(stream);
+      if (!r.stamps.empty()) r.stamps += "; ";
+      r.stamps += core::StreamName(stream) +
+                  (f.applied ? core::StringPrintf(" %.1f Hz, jitter %.1f ms -> exposure times (±%.2f ms)",
+                                                  1 / f.period_s, 1e3 * f.jitter_s, 1e3 * f.time_std_s)
+                             : " stamps kept: " + f.reason);
+    }
+  }
   std::string emissivity_source;
   std::unique_ptr<reconstruct::ThermalFusion> thermal =
       MakeThermalFusion(options, scan, r.warnings, emissivity_source);
@@ -536,6 +566,7 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   if (!r.depth_correction.empty()) {
     out += "Depth      corrected with rig.yaml's depth_correction (" + r.depth_correction + ")\n";
   }
+  if (!r.stamps.empty()) out += "Stamps     " + r.stamps + "\n";
   if (r.noise_gate_sigmas > 0 && r.tracked > 0) {  // (fusing along given poses tracks nothing)
     out += core::StringPrintf("Tracking   ICP gate and Huber threshold widened to %g sigmas of the depth noise "
                               "where wider (--icp-noise-gate)\n", r.noise_gate_sigmas);
@@ -683,6 +714,11 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--min-component-triangles", r.mesh.min_component_triangles,
                  "remove mesh fragments with fewer triangles")->capture_default_str();
   app.add_option("--threads", r.num_threads, "worker threads, 0 = all cores")->capture_default_str();
+  bool keep_stamps = false;
+  app.add_flag("--keep-stamps", keep_stamps,
+               "use every stream's stamps as indexed, not exposure times fitted to its frame clock");
+  app.add_option("--stamp-window", o.stamps.window_s,
+                 "span of the line fitted to the stamps around each frame, s")->capture_default_str();
   app.add_flag("--start-at-groundtruth", o.scan.start_at_groundtruth,
                "place the first frame at its groundtruth.txt pose (model in the scan's world frame)");
   app.add_option("--first-frame", o.scan.first_frame, "first depth frame to use")->capture_default_str();
@@ -750,6 +786,7 @@ int RunReconstruct(int argc, char** argv) {
                "synthetic scans: emissivity from truth/scene.ply (needs --start-at-groundtruth)");
   if (const int code = Parse(app, argc, argv); code >= 0) return code;
   o.thermal = !no_thermal;
+  o.regularise_stamps = !keep_stamps;
   t.confidence.motion_power = powers[0];
   t.confidence.distortion_power = powers[1];
   t.confidence.angle_power = powers[2];

@@ -33,6 +33,10 @@ struct ReconstructCommandOptions {
   std::optional<double> icp_noise_gate_sigmas;
   static constexpr double kNoiseGateWithMeasuredScale = 3;
   reconstruct::ScanReconstructionOptions scan;
+  // Each stream's stamps replaced by exposure times fitted to its frame clock where they fit
+  // one (core::ScanOptions::regularise_stamps); --keep-stamps turns it off.
+  bool regularise_stamps = true;
+  core::StampRegularisationOptions stamps;
   // Thermal fusion, when the scan has a thermal stream and thermal is true.
   bool thermal = true;
   reconstruct::ThermalFusionOptions thermal_fusion;
@@ -83,6 +87,9 @@ struct ReconstructCommandResult {
   int depth_frames = 0;  // depth frames in the range used
   // The rig's depth_correction applied to every depth frame: "17 x 13 nodes", "" = none.
   std::string depth_correction;
+  // The streams' frame clocks, one line: "depth 30.0 Hz, jitter 1.9 ms -> exposure times
+  // (±0.2 ms); thermal: kept (reason)"; "" with --keep-stamps.
+  std::string stamps;
   double noise_gate_sigmas = 0;  // ICP's depth-noise gate used (IcpOptions::noise_gate_sigmas)
   int fused = 0, tracked = 0, recovered = 0, lost = 0, no_depth = 0, missing = 0, coloured = 0;
   int integrated = 0;  // fused frames whose depth went into the volume

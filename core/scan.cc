@@ -218,6 +218,7 @@ std::string ScanOptions::Check() const {
   if (!(std::isfinite(gap_factor) && gap_factor > 1)) {
     return "gap_factor: must be > 1 and finite, got " + std::to_string(gap_factor);
   }
+  if (const std::string message = stamps.Check(); !message.empty()) return "stamps." + message;
   return "";
 }
 
@@ -344,10 +345,13 @@ Scan Scan::Open(const fs::path& folder, const ScanOptions& options) {
     StreamData& data = scan.Data(stream);
     const std::string name = StreamName(stream);
     const double offset_s = scan.TimeOffset(stream);
-    for (const IndexEntry& entry : data.entries) {
-      data.times_s.push_back(entry.timestamp_s);
-      data.depth_clock_s.push_back(entry.timestamp_s + offset_s);
+    for (const IndexEntry& entry : data.entries) data.times_s.push_back(entry.timestamp_s);
+    if (options.regularise_stamps && !data.times_s.empty()) {
+      data.stamp_fit = RegulariseStamps(data.times_s, options.stamps);
+      data.times_s = std::move(data.stamp_fit.times_s);
+      data.stamp_fit.times_s.clear();
     }
+    for (const double t : data.times_s) data.depth_clock_s.push_back(t + offset_s);
     data.exists.assign(data.entries.size(), true);
     for (size_t i = 0; i < data.entries.size(); ++i) {
       const fs::path file = folder / data.entries[i].path;
@@ -449,11 +453,12 @@ double Scan::TimeOffset(Stream stream) const {
 
 double Scan::Timestamp(Stream stream, int i) const {
   assert(i >= 0 && i < NumFrames(stream));
-  return Data(stream).entries[static_cast<size_t>(i)].timestamp_s;
+  return Data(stream).times_s[static_cast<size_t>(i)];
 }
 
 double Scan::DepthClockTime(Stream stream, int i) const {
-  return Timestamp(stream, i) + TimeOffset(stream);
+  assert(i >= 0 && i < NumFrames(stream));
+  return Data(stream).depth_clock_s[static_cast<size_t>(i)];
 }
 
 const std::vector<double>& Scan::Timestamps(Stream stream) const { return Data(stream).times_s; }

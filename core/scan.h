@@ -11,6 +11,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "core/image_io.h"
+#include "core/frame_clock.h"
 #include "core/rig.h"
 #include "core/trajectory.h"
 
@@ -74,6 +75,12 @@ struct ScanOptions {
   // An interval between consecutive frames longer than gap_factor x the stream's median
   // frame period is reported as a gap (a warning). Dimensionless, > 1.
   double gap_factor = 1.5;
+  // Replace each stream's stamps by exposure times fitted to a regular grid where they fit
+  // one (core/frame_clock.h): the stamps of a driver's arrival times jitter by milliseconds,
+  // which moves every pose interpolated at them. A stream that does not fit keeps its stamps
+  // (StampRegularisation says why). Off: the stamps as given.
+  bool regularise_stamps = false;
+  StampRegularisationOptions stamps;
 
   // "" when valid, else a message naming the field, value and constraint.
   std::string Check() const;
@@ -120,9 +127,14 @@ class Scan {
   // Assert 0 <= i < NumFrames(stream).
   double Timestamp(Stream stream, int i) const;
   double DepthClockTime(Stream stream, int i) const;
-  // All frames' timestamps, own clock / depth clock (seconds), in frame order.
+  // All frames' timestamps, own clock / depth clock (seconds), in frame order. With
+  // ScanOptions::regularise_stamps, the fitted exposure times of a stream that fits a grid
+  // (Entries() keep the stamps as indexed).
   const std::vector<double>& Timestamps(Stream stream) const;
   const std::vector<double>& DepthClockTimes(Stream stream) const;
+  // What ScanOptions::regularise_stamps found for the stream (applied = false and an empty
+  // reason when it was off or the stream has no frames).
+  const StampFit& StampRegularisation(Stream stream) const { return Data(stream).stamp_fit; }
 
   // Path of frame i's file: folder() / the path in the index.
   std::filesystem::path FramePath(Stream stream, int i) const;
@@ -182,6 +194,7 @@ class Scan {
     std::vector<IndexEntry> entries;
     std::vector<double> times_s;        // entries' timestamps, own clock
     std::vector<double> depth_clock_s;  // times_s + time offset
+    StampFit stamp_fit;                 // without its times_s (times_s holds them)
     std::vector<bool> exists;
     int num_missing = 0;
     double median_period_s = 0;

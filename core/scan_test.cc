@@ -312,6 +312,53 @@ TEST(ScanOpen, OptionsCheck) {
   EXPECT_EQ(options.Check(), "");
   options.gap_factor = 1.0;
   EXPECT_NE(options.Check().find("gap_factor: must be > 1"), std::string::npos);
+  options.gap_factor = 1.5;
+  options.stamps.window_s = -1;
+  EXPECT_NE(options.Check().find("stamps.window_s"), std::string::npos);
+}
+
+TEST(ScanClock, RegularisedStampsReplaceTimesAndKeepTheIndex) {
+  // Depth at 30 Hz and thermal at 9 Hz exposed on regular clocks, stamped with 2 ms of
+  // jitter; colour stamped at irregular intervals (no clock to fit).
+  std::mt19937 rng(3);
+  std::normal_distribution<double> jitter(0, 0.002);
+  std::uniform_real_distribution<double> interval(0.5 / 30, 1.5 / 30);
+  const std::vector<double> depth_exposure = Times(150, 100.0, 1.0 / 30.0);
+  const std::vector<double> thermal_exposure = Times(45, 100.01, 1.0 / 9.0);
+  std::vector<double> depth, thermal, rgb{100.0};
+  for (const double t : depth_exposure) depth.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
+  for (const double t : thermal_exposure) thermal.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
+  for (int k = 0; k < 150; ++k) rgb.push_back(rgb.back() + interval(rng));
+  const fs::path folder = hw::test::TestFolder() / "jitter";
+  Rig rig = TestRig();
+  rig.thermal_time_offset_s = -0.02;
+  WriteIndexOnlyScan(folder, rig, depth, rgb, thermal);
+
+  const Scan stamped = Scan::Open(folder);
+  EXPECT_FALSE(stamped.StampRegularisation(Stream::kDepth).applied);
+  EXPECT_TRUE(stamped.StampRegularisation(Stream::kDepth).reason.empty());
+  EXPECT_DOUBLE_EQ(stamped.Timestamp(Stream::kDepth, 10), std::stod(Stamp(depth[10])));
+
+  ScanOptions options;
+  options.regularise_stamps = true;
+  const Scan scan = Scan::Open(folder, options);
+  const auto rms = [](const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
+    return std::sqrt(sum / static_cast<double>(a.size()));
+  };
+  ASSERT_TRUE(scan.StampRegularisation(Stream::kDepth).applied) << scan.StampRegularisation(Stream::kDepth).reason;
+  ASSERT_TRUE(scan.StampRegularisation(Stream::kThermal).applied);
+  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).applied);
+  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).reason.empty());
+  // 2 ms of jitter → ~0.3 ms (150 depth frames: a 4 s window holds all; 45 thermal ones).
+  EXPECT_GT(rms(stamped.Timestamps(Stream::kDepth), depth_exposure), 0.0015);
+  EXPECT_LT(rms(scan.Timestamps(Stream::kDepth), depth_exposure), 0.0005);
+  EXPECT_LT(rms(scan.Timestamps(Stream::kThermal), thermal_exposure), 0.0008);
+  // The depth clock follows, the index keeps the stamps, the unfitted stream is unchanged.
+  EXPECT_DOUBLE_EQ(scan.DepthClockTime(Stream::kThermal, 5), scan.Timestamp(Stream::kThermal, 5) - 0.02);
+  EXPECT_DOUBLE_EQ(scan.Entries(Stream::kDepth)[10].timestamp_s, std::stod(Stamp(depth[10])));
+  EXPECT_EQ(scan.Timestamps(Stream::kRgb), stamped.Timestamps(Stream::kRgb));
 }
 
 // ---------------------------------------------------------------------------------------
