@@ -50,6 +50,12 @@ ScanInfoReport InspectScan(const ScanInfoOptions& options) {
 
   ScanInfoReport report;
   report.summary = core::SummarizeScan(scan);
+  for (const core::StreamSummary& st : report.summary.streams) {
+    if (st.frames == 0) continue;
+    std::vector<double> stamps;
+    for (const core::IndexEntry& e : scan.Entries(st.stream)) stamps.push_back(e.timestamp_s);
+    report.clocks[static_cast<size_t>(st.stream)] = core::RegulariseStamps(stamps);
+  }
   report.total_frames = core::TotalFrames(scan);
   if (options.check_frames) {
     core::ProgressBar progress("frames", report.total_frames, "frames", options.quiet);
@@ -86,6 +92,16 @@ std::string FormatScanInfo(const ScanInfoReport& report) {
     }
   }
   out += pairing;
+  for (const core::StreamSummary& st : s.streams) {
+    if (st.frames == 0) continue;
+    const core::StampFit& f = report.clocks[static_cast<size_t>(st.stream)];
+    out += "Clock    " + core::StreamName(st.stream) +
+           (f.applied ? core::StringPrintf(" %.2f Hz, jitter %.2f ms: exposure times fitted (±%.2f ms, %lld empty slots)",
+                                           1 / f.period_s, 1e3 * f.jitter_s, 1e3 * f.time_std_s,
+                                           static_cast<long long>(f.empty_slots))
+                      : ": stamps used as they are (" + f.reason + ")") +
+           "\n";
+  }
   out += "\n";
   out += core::StringPrintf("%-8s %-8s %-10s %9s %9s %4s %13s %15s\n", "Camera", "Model", "Size", "fx", "fy",
                 "Dist", "Baseline (m)", "Rotation (deg)");
@@ -159,6 +175,18 @@ std::string FormatScanInfoJson(const ScanInfoReport& report) {
     if (st.stream != core::Stream::kDepth) {
       o.Int("associated_depth_frames", st.associated_depth_frames)
           .Number("max_association_dt_s", st.max_association_dt_s);
+    }
+    if (st.frames > 0) {
+      const core::StampFit& f = report.clocks[static_cast<size_t>(st.stream)];
+      o.Add("clock", JsonObject()
+                         .Bool("regular", f.applied)
+                         .String("reason", f.reason)
+                         .Number("period_s", f.period_s)
+                         .Number("jitter_s", f.jitter_s)
+                         .Number("time_std_s", f.time_std_s)
+                         .Int("outliers", f.outliers)
+                         .Int("empty_slots", f.empty_slots)
+                         .str());
     }
     streams.push_back(o.str());
   }

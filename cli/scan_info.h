@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -30,6 +31,9 @@ struct ScanInfoReport {
   bool frames_checked = false;                     // check_frames ran
   int total_frames = 0;                            // frames of all streams
   std::vector<core::FrameProblem> frame_problems;  // frames that cannot be loaded
+  // Each indexed stream's frame clock fitted to its stamps (core/frame_clock.h): what
+  // `reconstruct` reads the stream at. Index: core::Stream; streams without frames: not fitted.
+  std::array<core::StampFit, 3> clocks;
 };
 
 // Opens the scan (throws InputError when it is not valid; a valid scan may have warnings)

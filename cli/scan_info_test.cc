@@ -91,6 +91,12 @@ TEST(ScanInfo, ValidScanExitsZeroWithASummary) {
   EXPECT_NE(r.out.find("no rgb.txt"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Ground truth  10 poses"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("FFC events    2"), std::string::npos) << r.out;
+  // The frame clocks reconstruct reads the streams at: 10 depth frames fit one, 4 thermal
+  // frames are too few.
+  EXPECT_NE(r.out.find("Clock    depth "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("exposure times fitted"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Clock    thermal: stamps used as they are (4 frames, fewer than 10)"), std::string::npos)
+      << r.out;
   // One screen: the report fits in 100 columns (lines naming the scan's paths aside) and
   // 40 lines.
   int lines = 0;
