@@ -18,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/median.h"
 #include "core/option_check.h"
 #include "core/strings.h"
 
@@ -25,6 +26,7 @@ namespace hw::calibrate {
 
 namespace {
 
+using core::Median;
 using core::OptionFail;
 using core::StringPrintf;
 
@@ -48,13 +50,6 @@ Eigen::MatrixXd AffineBasis(const core::DepthCorrection& grid) {
     basis.row(k) << 1, xy.x(), xy.y();
   }
   return basis;
-}
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), mid, values.end());
-  return *mid;
 }
 
 // Least-squares plane w = a·x + b·y + c over the selected samples (uniform weights).

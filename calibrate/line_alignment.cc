@@ -11,10 +11,13 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "core/median.h"
 #include "core/option_check.h"
 
 namespace hw::calibrate {
 namespace {
+
+using core::Median;
 
 constexpr double kDegToRad = M_PI / 180.0;
 constexpr double kNearZ = 0.05;
@@ -63,13 +66,6 @@ core::Rigid3d Perturb(const core::Rigid3d& pose, const Vector6d& x) {
   const Eigen::Quaterniond dq =
       angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle)) : Eigen::Quaterniond::Identity();
   return core::Rigid3d(dq * pose.rotation, pose.translation + x.tail<3>());
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
 }
 
 // Associates every frame's 2D segments with the projected 3D segments; fills the residuals.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/median.h"
 #include "core/option_check.h"
 
 namespace hw::core {
@@ -74,13 +75,6 @@ bool FitLine(std::span<const double> stamps, const std::vector<int64_t>& slots, 
   if (!(l.slope > 0)) return false;
   *line = l;
   return true;
-}
-
-double Median(std::vector<double> v) {
-  assert(!v.empty());
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-  return v[mid];
 }
 
 std::string Ms(double s) {
