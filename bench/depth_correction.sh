@@ -3,8 +3,9 @@
 # the scan reconstructed with its depth uncorrected, corrected with the field calibrated
 # from a depth-wall recording of the same device, with that field plus the depth scale
 # `calibrate extrinsics` measures on its plate (folded into rig.yaml; reconstruct then also
-# widens ICP's gate by default), and corrected with the fixtures' true field (an oracle,
-# whole and without its affine part, which no wall recording can see).
+# widens ICP's gate by default), and corrected with the fixtures' true field (an oracle:
+# whole, its affine part recorded as measured so that the gate widens as for the plate-
+# calibrated rig, and without its affine part, which no wall recording can see).
 # Prints the calibrations' figures, then each run's ATE, surface error and ratio to the
 # uncorrected ATE.
 #   bench/depth_correction.sh [--build DIR] [--out DIR] [--scan SCAN] [--wall WALL] [--plate PLATE]
