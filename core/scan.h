@@ -10,8 +10,8 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "core/image_io.h"
 #include "core/frame_clock.h"
+#include "core/image_io.h"
 #include "core/rig.h"
 #include "core/trajectory.h"
 
