@@ -51,11 +51,7 @@ int main(int argc, char** argv) {
       const Eigen::Vector3d p = a.ldlt().solve(b);
       if (no_affine) {
         std::printf("affine part removed: %.6f %+.6f x %+.6f y (1/m)\n", p(0), p(1), p(2));
-        for (int k = 0; k < nx * ny; ++k) {
-          const double x = c.x_range[0] + (c.x_range[1] - c.x_range[0]) * (k % nx) / (nx - 1);
-          const double y = c.y_range[0] + (c.y_range[1] - c.y_range[0]) * (k / nx) / (ny - 1);
-          c.offset_per_m[k] -= p(0) + p(1) * x + p(2) * y;
-        }
+        c.AddAffine(-p(0), -p(1), -p(2));
       } else {
         // Known exactly, so recorded as measured, as `calibrate extrinsics` records the part
         // its plate measured: the oracle stands for a fully calibrated sensor, and

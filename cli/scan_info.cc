@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "cli/command.h"
+#include "cli/reconstruct_json.h"
 #include "core/json.h"
 #include "core/progress.h"
 #include "core/strings.h"
@@ -178,15 +179,7 @@ std::string FormatScanInfoJson(const ScanInfoReport& report) {
     }
     if (st.frames > 0) {
       const core::StampFit& f = report.clocks[static_cast<size_t>(st.stream)];
-      o.Add("clock", JsonObject()
-                         .Bool("regular", f.applied)
-                         .String("reason", f.reason)
-                         .Number("period_s", f.period_s)
-                         .Number("jitter_s", f.jitter_s)
-                         .Number("time_std_s", f.time_std_s)
-                         .Int("outliers", f.outliers)
-                         .Int("empty_slots", f.empty_slots)
-                         .str());
+      o.Add("clock", StampFitJson(f));
     }
     streams.push_back(o.str());
   }

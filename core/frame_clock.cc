@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <cstdio>
 
 #include "core/median.h"
 #include "core/option_check.h"
+#include "core/strings.h"
 
 namespace hw::core {
 
@@ -77,17 +77,8 @@ bool FitLine(std::span<const double> stamps, const std::vector<int64_t>& slots, 
   return true;
 }
 
-std::string Ms(double s) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.1f ms", s * 1e3);
-  return buffer;
-}
-
-std::string Sec(double s) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.6f", s);
-  return buffer;
-}
+std::string Ms(double s) { return StringPrintf("%.1f ms", s * 1e3); }
+std::string Sec(double s) { return StringPrintf("%.6f", s); }
 
 }  // namespace
 
@@ -194,8 +185,8 @@ StampFit RegulariseStamps(std::span<const double> stamps, const StampRegularisat
   fit.jitter_s = sigma;
   for (size_t i = 0; i < n; ++i) fit.outliers += outlier[i];
   if (sigma > options.max_jitter_fraction * fit.period_s) {
-    fit.reason = "jitter " + Ms(sigma) + " exceeds " + std::to_string(options.max_jitter_fraction).substr(0, 5) +
-                 " of the period " + Ms(fit.period_s) + ": not a regular stream";
+    fit.reason = "jitter " + Ms(sigma) + StringPrintf(" exceeds %g", options.max_jitter_fraction) + " of the period " +
+                 Ms(fit.period_s) + ": not a regular stream";
     return fit;
   }
   if (fit.outliers > options.max_outlier_fraction * static_cast<double>(n)) {

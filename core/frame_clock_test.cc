@@ -1,26 +1,38 @@
 #include "core/frame_clock.h"
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "core/scan.h"
+#include "core/scan_test_support.h"
+#include "tests/support.h"
+
 namespace hw::core {
 namespace {
+
+namespace fs = std::filesystem;
+using test::Stamp;
+using test::TestRig;
+using test::Times;
+using test::WriteIndexOnlyScan;
 
 // A stream exposed every period_s from t0 (slots kept with probability 1 − drop, plus bursts
 // of dropped frames), stamped at exposure + jitter (Gaussian, cut at ±4σ, as the fixtures'
 // driver model) + latency.
-struct Stream {
+struct StampedStream {
   std::vector<double> exposure_s, stamp_s;
 };
-Stream MakeStream(int slots, double period_s, double jitter_s, uint32_t seed, double drop = 0.012,
+StampedStream MakeStream(int slots, double period_s, double jitter_s, uint32_t seed, double drop = 0.012,
                   double latency_s = 0.004, double t0 = 1000) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0, 1);
   std::uniform_real_distribution<double> uniform(0, 1);
-  Stream s;
+  StampedStream s;
   for (int k = 0; k < slots; ++k) {
     if (uniform(rng) < drop) continue;
     if (uniform(rng) < 0.003) {  // a burst of 3–10 dropped frames
@@ -49,7 +61,7 @@ TEST(RegulariseStamps, RecoversExposureTimesWithinTheirReportedError) {
   // stamps' 2 ms; and the reported error is the measured one within 30 % (20 seeds' worth).
   std::vector<double> measured, reported;
   for (uint32_t seed = 1; seed <= 20; ++seed) {
-    const Stream s = MakeStream(600, 1.0 / 30, 0.002, seed);
+    const StampedStream s = MakeStream(600, 1.0 / 30, 0.002, seed);
     const StampFit fit = RegulariseStamps(s.stamp_s);
     ASSERT_TRUE(fit.applied) << fit.reason;
     EXPECT_NEAR(fit.period_s, 1.0 / 30, 1e-5);
@@ -102,7 +114,7 @@ TEST(RegulariseStamps, FollowsADriftingClock) {
 TEST(RegulariseStamps, PutsALateDeliveryInItsSlot) {
   // A frame 25 ms late (3/4 of a period) lands on the next frame's slot; the next frame,
   // on time, moves it back. Also a stall: three frames delivered together 1 ms apart.
-  Stream s = MakeStream(300, 1.0 / 30, 0.001, 3, 0);
+  StampedStream s = MakeStream(300, 1.0 / 30, 0.001, 3, 0);
   s.stamp_s[100] += 0.025;
   s.stamp_s[200] = s.stamp_s[202] - 0.002;
   s.stamp_s[201] = s.stamp_s[202] - 0.001;
@@ -138,7 +150,7 @@ TEST(RegulariseStamps, LeavesAnIrregularStreamAsStamped) {
   EXPECT_FALSE(fit.reason.empty());
   EXPECT_EQ(fit.times_s, stamps);
   // Jitter of a third of the period: slots ambiguous.
-  const Stream s = MakeStream(300, 1.0 / 30, 0.011, 9, 0);
+  const StampedStream s = MakeStream(300, 1.0 / 30, 0.011, 9, 0);
   const StampFit noisy = RegulariseStamps(s.stamp_s);
   EXPECT_FALSE(noisy.applied);
   EXPECT_EQ(noisy.times_s, s.stamp_s);
@@ -152,6 +164,50 @@ TEST(RegulariseStamps, LeavesAnIrregularStreamAsStamped) {
   const StampFit few = RegulariseStamps(std::vector<double>{1, 2, 3});
   EXPECT_FALSE(few.applied);
   EXPECT_EQ(few.times_s, (std::vector<double>{1, 2, 3}));
+}
+
+TEST(ScanClock, RegularisedStampsReplaceTimesAndKeepTheIndex) {
+  // Depth at 30 Hz and thermal at 9 Hz exposed on regular clocks, stamped with 2 ms of
+  // jitter; colour stamped at irregular intervals (no clock to fit).
+  std::mt19937 rng(3);
+  std::normal_distribution<double> jitter(0, 0.002);
+  std::uniform_real_distribution<double> interval(0.5 / 30, 1.5 / 30);
+  const std::vector<double> depth_exposure = Times(150, 100.0, 1.0 / 30.0);
+  const std::vector<double> thermal_exposure = Times(45, 100.01, 1.0 / 9.0);
+  std::vector<double> depth, thermal, rgb{100.0};
+  for (const double t : depth_exposure) depth.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
+  for (const double t : thermal_exposure) thermal.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
+  for (int k = 0; k < 150; ++k) rgb.push_back(rgb.back() + interval(rng));
+  const fs::path folder = hw::test::TestFolder() / "jitter";
+  Rig rig = TestRig();
+  rig.thermal_time_offset_s = -0.02;
+  WriteIndexOnlyScan(folder, rig, depth, rgb, thermal);
+
+  const Scan stamped = Scan::Open(folder);
+  EXPECT_FALSE(stamped.StampRegularisation(Stream::kDepth).applied);
+  EXPECT_TRUE(stamped.StampRegularisation(Stream::kDepth).reason.empty());
+  EXPECT_DOUBLE_EQ(stamped.Timestamp(Stream::kDepth, 10), std::stod(Stamp(depth[10])));
+
+  ScanOptions options;
+  options.regularise_stamps = true;
+  const Scan scan = Scan::Open(folder, options);
+  const auto rms = [](const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
+    return std::sqrt(sum / static_cast<double>(a.size()));
+  };
+  ASSERT_TRUE(scan.StampRegularisation(Stream::kDepth).applied) << scan.StampRegularisation(Stream::kDepth).reason;
+  ASSERT_TRUE(scan.StampRegularisation(Stream::kThermal).applied);
+  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).applied);
+  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).reason.empty());
+  // 2 ms of jitter → ~0.3 ms (150 depth frames: a 4 s window holds all; 45 thermal ones).
+  EXPECT_GT(rms(stamped.Timestamps(Stream::kDepth), depth_exposure), 0.0015);
+  EXPECT_LT(rms(scan.Timestamps(Stream::kDepth), depth_exposure), 0.0005);
+  EXPECT_LT(rms(scan.Timestamps(Stream::kThermal), thermal_exposure), 0.0008);
+  // The depth clock follows, the index keeps the stamps, the unfitted stream is unchanged.
+  EXPECT_DOUBLE_EQ(scan.DepthClockTime(Stream::kThermal, 5), scan.Timestamp(Stream::kThermal, 5) - 0.02);
+  EXPECT_DOUBLE_EQ(scan.Entries(Stream::kDepth)[10].timestamp_s, std::stod(Stamp(depth[10])));
+  EXPECT_EQ(scan.Timestamps(Stream::kRgb), stamped.Timestamps(Stream::kRgb));
 }
 
 TEST(RegulariseStamps, OptionsCheckNamesTheField) {

@@ -19,6 +19,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/scan_test_support.h"
 #include "core/scan_writer.h"
 #include "tests/support.h"
 
@@ -26,21 +27,12 @@ namespace hw::core {
 namespace {
 
 namespace fs = std::filesystem;
-
-Rig TestRig() {
-  Rig rig;
-  rig.depth_scale = 1000.0;
-  rig.depth = CameraModel::Pinhole(32, 24, 30.0, 30.0);
-  rig.rgb = CameraModel::Pinhole(32, 24, 31.0, 31.0);
-  rig.depth_from_rgb = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.025, 0, 0));
-  rig.thermal = CameraModel::Pinhole(16, 12, 15.0, 15.0);
-  // Baseline |(0.03, 0.04, 0)| = 0.05 m, rotated 10 degrees about the optical axis.
-  rig.depth_from_thermal =
-      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(10.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ())),
-              Eigen::Vector3d(0.03, 0.04, 0));
-  rig.thermal_settings = ThermalSettings{};
-  return rig;
-}
+using test::IndexText;
+using test::Stamp;
+using test::TestRig;
+using test::Times;
+using test::WriteIndexOnlyScan;
+using test::WriteText;
 
 Rig DepthOnlyRig() {
   Rig rig = TestRig();
@@ -50,37 +42,6 @@ Rig DepthOnlyRig() {
   rig.depth_from_rgb = Rigid3d::Identity();
   rig.depth_from_thermal = Rigid3d::Identity();
   return rig;
-}
-
-void WriteText(const fs::path& path, const std::string& text) { WriteFileAtomically(path, text); }
-
-std::string Stamp(double t) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.6f", t);
-  return buf;
-}
-
-// "t <stream>/t.png" lines.
-std::string IndexText(const std::string& stream, const std::vector<double>& times,
-                      const std::string& extension = ".png") {
-  std::string text = "# " + stream + "\n";
-  for (const double t : times) text += Stamp(t) + " " + stream + "/" + Stamp(t) + extension + "\n";
-  return text;
-}
-
-std::vector<double> Times(int n, double start_s, double period_s) {
-  std::vector<double> times;
-  for (int i = 0; i < n; ++i) times.push_back(start_s + i * period_s);
-  return times;
-}
-
-// A scan with indexes only (frame files missing: warnings, which these tests do not load).
-void WriteIndexOnlyScan(const fs::path& folder, const Rig& rig, const std::vector<double>& depth,
-                        const std::vector<double>& rgb, const std::vector<double>& thermal) {
-  WriteRig(folder / "rig.yaml", rig);
-  WriteText(folder / "depth.txt", IndexText("depth", depth));
-  if (!rgb.empty()) WriteText(folder / "rgb.txt", IndexText("rgb", rgb));
-  if (!thermal.empty()) WriteText(folder / "thermal.txt", IndexText("thermal", thermal));
 }
 
 // Expects `f` to throw InputError whose message contains every one of `parts`.
@@ -317,49 +278,6 @@ TEST(ScanOpen, OptionsCheck) {
   EXPECT_NE(options.Check().find("stamps.window_s"), std::string::npos);
 }
 
-TEST(ScanClock, RegularisedStampsReplaceTimesAndKeepTheIndex) {
-  // Depth at 30 Hz and thermal at 9 Hz exposed on regular clocks, stamped with 2 ms of
-  // jitter; colour stamped at irregular intervals (no clock to fit).
-  std::mt19937 rng(3);
-  std::normal_distribution<double> jitter(0, 0.002);
-  std::uniform_real_distribution<double> interval(0.5 / 30, 1.5 / 30);
-  const std::vector<double> depth_exposure = Times(150, 100.0, 1.0 / 30.0);
-  const std::vector<double> thermal_exposure = Times(45, 100.01, 1.0 / 9.0);
-  std::vector<double> depth, thermal, rgb{100.0};
-  for (const double t : depth_exposure) depth.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
-  for (const double t : thermal_exposure) thermal.push_back(t + std::clamp(jitter(rng), -0.008, 0.008));
-  for (int k = 0; k < 150; ++k) rgb.push_back(rgb.back() + interval(rng));
-  const fs::path folder = hw::test::TestFolder() / "jitter";
-  Rig rig = TestRig();
-  rig.thermal_time_offset_s = -0.02;
-  WriteIndexOnlyScan(folder, rig, depth, rgb, thermal);
-
-  const Scan stamped = Scan::Open(folder);
-  EXPECT_FALSE(stamped.StampRegularisation(Stream::kDepth).applied);
-  EXPECT_TRUE(stamped.StampRegularisation(Stream::kDepth).reason.empty());
-  EXPECT_DOUBLE_EQ(stamped.Timestamp(Stream::kDepth, 10), std::stod(Stamp(depth[10])));
-
-  ScanOptions options;
-  options.regularise_stamps = true;
-  const Scan scan = Scan::Open(folder, options);
-  const auto rms = [](const std::vector<double>& a, const std::vector<double>& b) {
-    double sum = 0;
-    for (size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
-    return std::sqrt(sum / static_cast<double>(a.size()));
-  };
-  ASSERT_TRUE(scan.StampRegularisation(Stream::kDepth).applied) << scan.StampRegularisation(Stream::kDepth).reason;
-  ASSERT_TRUE(scan.StampRegularisation(Stream::kThermal).applied);
-  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).applied);
-  EXPECT_FALSE(scan.StampRegularisation(Stream::kRgb).reason.empty());
-  // 2 ms of jitter → ~0.3 ms (150 depth frames: a 4 s window holds all; 45 thermal ones).
-  EXPECT_GT(rms(stamped.Timestamps(Stream::kDepth), depth_exposure), 0.0015);
-  EXPECT_LT(rms(scan.Timestamps(Stream::kDepth), depth_exposure), 0.0005);
-  EXPECT_LT(rms(scan.Timestamps(Stream::kThermal), thermal_exposure), 0.0008);
-  // The depth clock follows, the index keeps the stamps, the unfitted stream is unchanged.
-  EXPECT_DOUBLE_EQ(scan.DepthClockTime(Stream::kThermal, 5), scan.Timestamp(Stream::kThermal, 5) - 0.02);
-  EXPECT_DOUBLE_EQ(scan.Entries(Stream::kDepth)[10].timestamp_s, std::stod(Stamp(depth[10])));
-  EXPECT_EQ(scan.Timestamps(Stream::kRgb), stamped.Timestamps(Stream::kRgb));
-}
 
 // ---------------------------------------------------------------------------------------
 // Clocks and association

@@ -357,6 +357,10 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                " --truncation-noise-sigmas -1");
   EXPECT_EQ(band.exit_code, 2) << band.output;
   EXPECT_NE(band.output.find("truncation_noise_sigmas"), std::string::npos) << band.output;
+  const Result window = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
+                                 " --stamp-window 0");
+  EXPECT_EQ(window.exit_code, 2) << window.output;
+  EXPECT_NE(window.output.find("stamps.window_s"), std::string::npos) << window.output;
   const Result gate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                " --icp-noise-gate -1");
   EXPECT_EQ(gate.exit_code, 2) << gate.output;
