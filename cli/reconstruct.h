@@ -119,6 +119,10 @@ struct ReconstructCommandResult {
   // Model vertices (in the truth's frame: see RunReconstruction) to truth/scene.ply, when
   // the scan has both (synthetic scans).
   std::optional<reconstruct::SurfaceDistanceStats> surface;
+  // The same after registering the model onto truth/scene.ply (the shape's error; the
+  // registration says how far the map sat from the world).
+  std::optional<reconstruct::MeshRegistration> registration;
+  std::optional<reconstruct::SurfaceDistanceStats> surface_registered;
   std::optional<ThermalCommandResult> thermal;  // when the scan has thermal frames and a
                                                 // thermal camera, and options.thermal
   std::vector<std::string> warnings;

@@ -249,6 +249,22 @@ std::string ReconstructReportJson(const ReconstructCommandOptions& options, cons
           .Number("rms_m", r.surface->rms_m)
           .Number("p90_m", r.surface->p90_m)
           .Number("max_m", r.surface->max_m);
+      if (r.surface_registered && r.registration) {
+        JsonObject registered;
+        registered.Number("rotation_deg", r.registration->rotation_deg)
+            .Number("translation_m", r.registration->translation_m)
+            .Int("iterations", r.registration->iterations)
+            .Bool("converged", r.registration->converged)
+            .Int("correspondences", r.registration->correspondences)
+            .Int("constrained_directions", r.registration->constrained_directions)
+            .Int("beyond_search", r.surface_registered->beyond_search)
+            .Number("median_m", r.surface_registered->median_m)
+            .Number("mean_m", r.surface_registered->mean_m)
+            .Number("rms_m", r.surface_registered->rms_m)
+            .Number("p90_m", r.surface_registered->p90_m)
+            .Number("max_m", r.surface_registered->max_m);
+        surface.Add("registered", registered.str());
+      }
       eval.Add("surface_to_truth", surface.str());
     }
     all.Add("groundtruth_evaluation", eval.str());

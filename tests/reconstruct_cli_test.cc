@@ -63,6 +63,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("ATE RMSE"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("Surface"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Shape      registered onto the truth (moved "), std::string::npos) << r.output;
   const hw::core::Trajectory trajectory = hw::core::ReadTumTrajectory(out / "trajectory.txt");
   const hw::core::Scan scan = hw::core::Scan::Open(SmoothScan());
   const int present = scan.NumFrames(hw::core::Stream::kDepth) - scan.NumMissingFrames(hw::core::Stream::kDepth);
@@ -74,7 +75,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   const std::string json = Read(out / "reconstruct.json");
   for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
-                          "\"surface_to_truth\"", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
+                          "\"surface_to_truth\"", "\"registered\": {\"rotation_deg\": ", "\"constrained_directions\": 6", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
                           "\"interval\": 8", "\"reuse_max_motion_m\": 0.04", "\"reuse_max_motion_deg\": 2.5",
                           "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019", "\"noise_gate_sigmas\": 0",
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
