@@ -115,6 +115,7 @@ struct ReconstructCommandResult {
   double load_seconds = 0, process_seconds = 0, mesh_seconds = 0, total_seconds = 0;
   // Mean wall time per processed frame of each stage, ms.
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
+  double prepare_ahead_ms = 0;  // mean FrameRecord::prepare_ahead_ms (beside, not in the total)
   std::optional<reconstruct::TrajectoryEval> evaluation;  // when the scan has groundtruth
   // Model vertices (in the truth's frame: see RunReconstruction) to truth/scene.ply, when
   // the scan has both (synthetic scans).

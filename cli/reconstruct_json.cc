@@ -86,6 +86,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("max_condition_ratio", r.max_condition_ratio)
       .Int("num_threads", r.num_threads)
       .Bool("start_at_groundtruth", o.scan.start_at_groundtruth)
+      .Bool("prepare_ahead", o.scan.prepare_ahead)
       .Bool("regularise_stamps", o.regularise_stamps)
       .Number("stamp_window_s", o.stamps.window_s)
       .String("poses", o.poses_path.string())
@@ -137,6 +138,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
       .Int("blocks_updated", f.blocks_updated)
       .Int("blocks_coarse", f.blocks_coarse)
       .Number("prepare_ms", f.prepare_ms)
+      .Number("prepare_ahead_ms", f.prepare_ahead_ms)
       .Number("track_ms", f.track_ms)
       .Number("integrate_ms", f.integrate_ms)
       .Number("raycast_ms", f.raycast_ms);
@@ -200,6 +202,7 @@ std::string ReconstructReportJson(const ReconstructCommandOptions& options, cons
       .Number("total_s", r.total_seconds)
       .Number("frames_per_s", processed / std::max(r.process_seconds, 1e-9))
       .Number("mean_prepare_ms", r.prepare_ms)
+      .Number("mean_prepare_ahead_ms", r.prepare_ahead_ms)
       .Number("mean_track_ms", r.track_ms)
       .Number("mean_integrate_ms", r.integrate_ms)
       .Number("mean_raycast_ms", r.raycast_ms)

@@ -9,6 +9,7 @@
 
 #include "fixtures/cached_test_data.h"
 #include "fixtures/synth_scan.h"
+#include "reconstruct/reconstruction.h"
 
 namespace hw::reconstruct::test {
 
@@ -34,6 +35,16 @@ inline fs::path CachedScan(const std::string& name, const fixtures::SynthScanOpt
   return fixtures::test::CachedTestData(name, "depth.txt", [&](const fs::path& folder) {
     fixtures::SynthesizeScan(options, folder);
   });
+}
+
+// The pipeline at the test scans' 160×120: voxels of 1 cm (a 640×480 frame's pixel at 1 m
+// is 1.75 mm; at 160×120, 7 mm — finer voxels would hold single noisy pixels).
+inline ReconstructionOptions PipelineTestOptions() {
+  ReconstructionOptions o;
+  o.tsdf.voxel_size_m = 0.01;
+  o.tsdf.truncation_m = 0.04;
+  o.mesh.min_component_triangles = 20;
+  return o;
 }
 
 }  // namespace hw::reconstruct::test

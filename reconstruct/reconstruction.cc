@@ -170,8 +170,7 @@ core::Rigid3d Reconstruction::PoseAt(double timestamp_s) const {
   return core::Interpolate(a.world_from_sensor, b.world_from_sensor, s);
 }
 
-const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
-  assert(!volume_released_ && "Reconstruction::AddFrame after ReleaseVolume");
+PreparedFrame Reconstruction::Prepare(const FrameInput& frame, int num_threads) const {
   if (frame.depth_m.type() != CV_32FC1 || frame.depth_m.cols != rig_.depth.width ||
       frame.depth_m.rows != rig_.depth.height) {
     throw std::invalid_argument(core::StringPrintf(
@@ -187,6 +186,42 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
         frame.rgb_timestamp_s, rig_.rgb->width, rig_.rgb->height, frame.rgb.cols,
         frame.rgb.rows, frame.rgb.type()));
   }
+  const auto start = std::chrono::steady_clock::now();
+  PreparedFrame prepared;
+  // NaN / inf pixels are missing measurements, not numbers to fuse: undistortion copies them
+  // (nearest neighbour), the pyramid's range limits drop them from everything downstream, and
+  // registration skips them.
+  // The sensor's systematic inverse-depth error is undone first, at the distorted pixel
+  // whose ray it was calibrated on.
+  cv::Mat corrected_depth_m;
+  if (!depth_offset_map_.empty()) {
+    corrected_depth_m.create(frame.depth_m.size(), CV_32FC1);
+    ForEachBand(frame.depth_m.rows, num_threads, [&](int y0, int y1) {  // per pixel: in bands
+      cv::Mat band = corrected_depth_m.rowRange(y0, y1);
+      frame.depth_m.rowRange(y0, y1).copyTo(band);
+      core::CorrectDepth(depth_offset_map_.rowRange(y0, y1), &band);
+    });
+  }
+  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(
+      depth_offset_map_.empty() ? frame.depth_m : corrected_depth_m);
+  // The colour frame, undistorted once for both uses: registered to the depth pixels for
+  // ICP's photometric term, and projected into the volume by integration.
+  const bool use_colour = rig_.rgb && !frame.rgb.empty() &&
+                          (options_.integrate_colour || options_.icp.photometric_weight > 0);
+  if (use_colour) prepared.rgb_pinhole = rgb_undistorter_.UndistortColour(frame.rgb);
+  DepthFilterOptions depth_options = options_.depth;
+  depth_options.num_threads = num_threads;
+  prepared.pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(), depth_options);
+  prepared.prepare_ms = internal::MsSince(start);
+  return prepared;
+}
+
+const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
+  return AddFrame(frame, Prepare(frame, options_.num_threads));
+}
+
+const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFrame prepared) {
+  assert(!volume_released_ && "Reconstruction::AddFrame after ReleaseVolume");
   if (!(frame.timestamp_s > last_timestamp_s_) || !std::isfinite(frame.timestamp_s)) {
     throw std::invalid_argument(core::StringPrintf(
         "depth frame at %.6f s: timestamps must increase (previous %.6f s)", frame.timestamp_s,
@@ -199,31 +234,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   record.timestamp_s = frame.timestamp_s;
 
   auto start = std::chrono::steady_clock::now();
-  // NaN / inf pixels are missing measurements, not numbers to fuse: undistortion copies them
-  // (nearest neighbour), the pyramid's range limits drop them from everything downstream, and
-  // registration skips them.
-  // The sensor's systematic inverse-depth error is undone first, at the distorted pixel
-  // whose ray it was calibrated on.
-  cv::Mat corrected_depth_m;
-  if (!depth_offset_map_.empty()) {
-    corrected_depth_m.create(frame.depth_m.size(), CV_32FC1);
-    ForEachBand(frame.depth_m.rows, options_.num_threads, [&](int y0, int y1) {  // per pixel: in bands
-      cv::Mat band = corrected_depth_m.rowRange(y0, y1);
-      frame.depth_m.rowRange(y0, y1).copyTo(band);
-      core::CorrectDepth(depth_offset_map_.rowRange(y0, y1), &band);
-    });
-  }
-  const cv::Mat undistorted = depth_undistorter_.UndistortDepth(
-      depth_offset_map_.empty() ? frame.depth_m : corrected_depth_m);
-  // The colour frame, undistorted once for both uses: registered to the depth pixels for
-  // ICP's photometric term, and projected into the volume by integration.
-  cv::Mat rgb_pinhole;
-  const bool use_colour = rig_.rgb && !frame.rgb.empty() &&
-                          (options_.integrate_colour || options_.icp.photometric_weight > 0);
-  if (use_colour) {
-    rgb_pinhole = rgb_undistorter_.UndistortColour(frame.rgb);
-  }
-  DepthPyramid pyramid = BuildDepthPyramid(undistorted, depth_undistorter_.pinhole(), options_.depth);
+  DepthPyramid& pyramid = prepared.pyramid;
+  const cv::Mat& rgb_pinhole = prepared.rgb_pinhole;
+  const bool use_colour = !rgb_pinhole.empty();
   // The photometric term reads the grey levels of the levels ICP iterates on, the finest
   // first_map_level: the colour is registered to that level's pixels directly (RegisterGrey:
   // what registering every full-size pixel and averaging down gives, for a quarter of the
@@ -274,7 +287,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame) {
   } keep_image{*this, pyramid, frame.timestamp_s, prealign_blurs};
   record.valid_depth_fraction =
       static_cast<double>(cv::countNonZero(pyramid.raw_depth_m)) / pyramid.raw_depth_m.total();
-  record.prepare_ms = internal::MsSince(start);
+  // Preparation's cost to the pipeline: made here, all of it; made ahead, the wait for it.
+  record.prepare_ms = internal::MsSince(start) + (prepared.ahead ? prepared.wait_ms : prepared.prepare_ms);
+  record.prepare_ahead_ms = prepared.ahead ? prepared.prepare_ms : 0;
 
   if (record.valid_depth_fraction < options_.min_valid_depth_fraction ||
       record.valid_depth_fraction == 0) {

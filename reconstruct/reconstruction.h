@@ -177,6 +177,19 @@ struct FrameInput {
   std::optional<core::Rigid3d> world_from_depth;
 };
 
+// A frame's depth and colour made ready for the pipeline: the rig's depth correction, lens
+// undistortion, range limits, the depth pyramid (bilateral filter, half levels, point maps)
+// and the undistorted colour. It depends on the frame and the rig only, not on the
+// reconstruction's state, so ReconstructScan makes the next frame's on a thread of its own
+// while the current one is tracked and fused (Reconstruction::Prepare).
+struct PreparedFrame {
+  DepthPyramid pyramid;
+  cv::Mat rgb_pinhole;        // CV_8UC3 undistorted colour; empty without colour
+  double prepare_ms = 0;      // wall time Prepare took, ms
+  double wait_ms = 0;         // set by a caller that made it ahead: time spent waiting for it, ms
+  bool ahead = false;         // set by that caller: made beside the previous frame's processing
+};
+
 enum class FrameStatus {
   kInitialised,  // first usable frame: defines the world frame (or initial_world_from_depth)
   kTracked,      // ICP succeeded; fused
@@ -242,8 +255,12 @@ struct FrameRecord {
   // nearer: TsdfOptions::coarse_far); 0 when not integrated.
   int blocks_updated = 0, blocks_coarse = 0;
   // Wall time of each stage, ms. raycast_ms is 0 when the model view was not cast after
-  // this frame (ReconstructionOptions::raycast_interval).
+  // this frame (ReconstructionOptions::raycast_interval). prepare_ms is what preparation
+  // cost the pipeline: with the frame prepared ahead (PreparedFrame::ahead), the wait for it
+  // and the colour's registration only; prepare_ahead_ms then holds Prepare's own time,
+  // spent beside the previous frame (0 otherwise).
   double prepare_ms = 0, track_ms = 0, integrate_ms = 0, raycast_ms = 0;
+  double prepare_ahead_ms = 0;
 };
 
 class Reconstruction {
@@ -255,10 +272,19 @@ class Reconstruction {
   // depth camera). Set before the first AddFrame.
   void SetInitialPose(const core::Rigid3d& world_from_depth);
 
-  // Processes one frame. Throws std::invalid_argument when depth_m is not CV_32FC1 of the
-  // rig's depth size, rgb (when given) not CV_8UC3 of the rgb size, or timestamps do not
-  // increase. Non-finite depth pixels count as missing.
+  // Processes one frame: AddFrame(frame, Prepare(frame, options().num_threads)). Throws
+  // std::invalid_argument when depth_m is not CV_32FC1 of the rig's depth size, rgb (when
+  // given) not CV_8UC3 of the rgb size, or timestamps do not increase. Non-finite depth
+  // pixels count as missing.
   const FrameRecord& AddFrame(const FrameInput& frame);
+  // The same with the frame already prepared (by Prepare on the same frame).
+  const FrameRecord& AddFrame(const FrameInput& frame, PreparedFrame prepared);
+  // The part of a frame's processing that depends on the frame and the rig only
+  // (PreparedFrame), on num_threads threads (0: all; 1: the calling thread only, for a caller
+  // running it beside AddFrame: two callers of the shared pool would take turns). Safe to
+  // call from another thread while AddFrame runs; the result is the same whatever the thread
+  // count. Throws std::invalid_argument on a frame of the wrong size or type, as AddFrame.
+  PreparedFrame Prepare(const FrameInput& frame, int num_threads) const;
 
   const TsdfVolume& volume() const { return volume_; }
   // world_from_depth at every fused frame (tracked, recovered, initialised), depth clock.
@@ -362,6 +388,11 @@ struct ScanReconstructionOptions {
   // PoseGapLimitS(scan) not bridged) instead of tracking: frames they do not cover are
   // skipped with a warning.
   std::optional<core::Trajectory> poses;
+  // Prepare each frame (Reconstruction::Prepare, on one thread) beside the previous frame's
+  // tracking and fusion instead of before it: the same results, sooner — the pipeline's
+  // stages leave part of the cores idle (serial steps, waits), which the preparation fills.
+  // Not with ReconstructionOptions::num_threads 1.
+  bool prepare_ahead = true;
 
   std::string Check() const;
 };
@@ -378,7 +409,7 @@ struct ScanReconstruction {
   double thermal_finish_seconds = 0;   // ThermalFusion::Finish (the offline estimate)
   std::vector<std::string> warnings;   // one line each: missing frames, lost frames, ...
   double load_seconds = 0;             // decoding frames
-  double process_seconds = 0;          // AddFrame calls
+  double process_seconds = 0;          // AddFrame calls (and waits for frames prepared ahead)
 };
 
 // Runs `reconstruction` over the depth frames of `scan` in order, with their associated rgb

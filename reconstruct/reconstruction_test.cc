@@ -26,15 +26,7 @@ using test::TestScanOptions;
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-// The pipeline at the test scans' 160×120: voxels of 1 cm (a 640×480 frame's pixel at 1 m
-// is 1.75 mm; at 160×120, 7 mm — finer voxels would hold single noisy pixels).
-ReconstructionOptions TestOptions() {
-  ReconstructionOptions o;
-  o.tsdf.voxel_size_m = 0.01;
-  o.tsdf.truncation_m = 0.04;
-  o.mesh.min_component_triangles = 20;
-  return o;
-}
+ReconstructionOptions TestOptions() { return test::PipelineTestOptions(); }
 
 struct Outcome {
   TrajectoryEval eval;
@@ -93,28 +85,6 @@ TEST(Reconstruction, ModelSurfaceLiesOnTheTruthMesh) {
   int dark = 0;
   for (const Rgb8& c : run.mesh.colours) dark += c.cast<int>().sum() < 15;
   EXPECT_LT(dark, static_cast<int>(run.mesh.colours.size()) / 20);
-}
-
-TEST(Reconstruction, FrameByFrameEqualsWholeScan) {
-  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  Reconstruction whole(scan.rig(), TestOptions());
-  ScanReconstructionOptions first_ten;
-  first_ten.max_frames = 10;
-  ReconstructScan(scan, whole, first_ten);
-
-  Reconstruction live(scan.rig(), TestOptions());
-  for (int i = 0; i < 10; ++i) {
-    if (!scan.FrameExists(Stream::kDepth, i)) continue;
-    FrameInput frame = LoadScanFrame(scan, i, true);
-    live.AddFrame(frame);
-  }
-  ASSERT_EQ(live.trajectory().size(), whole.trajectory().size());
-  for (size_t i = 0; i < live.trajectory().size(); ++i) {
-    const core::PoseError e = core::ComparePoses(live.trajectory().poses()[i].world_from_sensor,
-                                                 whole.trajectory().poses()[i].world_from_sensor);
-    EXPECT_EQ(e.translation_m, 0.0);
-  }
-  EXPECT_EQ(live.volume().NumBlocks(), whole.volume().NumBlocks());
 }
 
 // Frames with a known pose, then tracked ones (a motion-capture stretch, then none): the

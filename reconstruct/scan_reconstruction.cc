@@ -6,11 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <optional>
 #include <stdexcept>
 
 #include "core/error.h"
 #include "core/strings.h"
 #include "reconstruct/elapsed.h"
+#include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
 
@@ -130,28 +133,19 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
                        scan.NumFrames(Stream::kRgb) > 0;
   ThermalFeeder feeder(scan, thermal, out);
   const double pose_gap_s = PoseGapLimitS(scan);
-  for (int i = first; i < last; ++i) {
-    const double t = scan.Timestamp(Stream::kDepth, i);
-    if (!scan.FrameExists(Stream::kDepth, i)) {
-      ++out.missing_frames;
-      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: %s is missing, skipped",
-                                                i, t, scan.FramePath(Stream::kDepth, i).c_str()));
-      if (frame_done) frame_done(i - first + 1, last - first);
-      continue;
-    }
-    auto load_start = std::chrono::steady_clock::now();
-    FrameInput frame = LoadScanFrame(scan, i, use_rgb);
-    out.load_seconds += internal::MsSince(load_start) / 1000;
-
-    if (options.poses) {
-      frame.world_from_depth = options.poses->At(t, pose_gap_s);
-      if (!frame.world_from_depth) {
-        ++out.unposed_frames;
-        out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: no given pose, skipped", i, t));
-        if (frame_done) frame_done(i - first + 1, last - first);
-        continue;
-      }
-    }
+  // A frame loaded and being prepared (on its own thread with prepare_ahead) while the one
+  // before it is processed.
+  struct Pending {
+    int index = 0;
+    FrameInput frame;
+    std::future<PreparedFrame> prepared;
+  };
+  std::optional<Pending> pending;
+  // One thread asked for: one thread used.
+  const bool prepare_ahead = options.prepare_ahead && ResolveThreads(reconstruction.options().num_threads) > 1;
+  const auto process = [&](Pending& p) {
+    const int i = p.index;
+    const double t = p.frame.timestamp_s;
     if (options.start_at_groundtruth && reconstruction.trajectory().empty()) {
       const std::optional<core::Rigid3d> gt =
           scan.groundtruth() ? scan.groundtruth()->At(t) : std::nullopt;
@@ -163,7 +157,17 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
       reconstruction.SetInitialPose(*gt);
     }
     const auto process_start = std::chrono::steady_clock::now();
-    const FrameRecord& record = reconstruction.AddFrame(frame);
+    const FrameRecord* record_ptr = nullptr;
+    if (p.prepared.valid()) {
+      const auto wait_start = std::chrono::steady_clock::now();
+      PreparedFrame prepared = p.prepared.get();  // rethrows Prepare's invalid_argument
+      prepared.wait_ms = internal::MsSince(wait_start);
+      prepared.ahead = true;
+      record_ptr = &reconstruction.AddFrame(p.frame, std::move(prepared));
+    } else {
+      record_ptr = &reconstruction.AddFrame(p.frame);
+    }
+    const FrameRecord& record = *record_ptr;
     out.process_seconds += internal::MsSince(process_start) / 1000;
     out.depth_frame_index.push_back(i);
     if (record.status == FrameStatus::kLost) {
@@ -177,11 +181,57 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
           100 * record.valid_depth_fraction));
     }
     if (thermal && record.fused) {
-      feeder.AddDepth(t, frame.depth_m, reconstruction.trajectory().poses().back().world_from_sensor);
+      feeder.AddDepth(t, p.frame.depth_m, reconstruction.trajectory().poses().back().world_from_sensor);
       feeder.Feed(reconstruction, false);
     }
     if (frame_done) frame_done(i - first + 1, last - first);
+  };
+  // Processes the pending frame, if any. On the way out of an exception, the frame being
+  // prepared is waited for (its thread reads the reconstruction) by the future's destructor.
+  const auto flush = [&] {
+    if (!pending) return;
+    Pending p = std::move(*pending);
+    pending.reset();
+    process(p);
+  };
+  for (int i = first; i < last; ++i) {
+    const double t = scan.Timestamp(Stream::kDepth, i);
+    if (!scan.FrameExists(Stream::kDepth, i)) {
+      flush();
+      ++out.missing_frames;
+      out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: %s is missing, skipped",
+                                                i, t, scan.FramePath(Stream::kDepth, i).c_str()));
+      if (frame_done) frame_done(i - first + 1, last - first);
+      continue;
+    }
+    std::optional<core::Rigid3d> given_pose;
+    if (options.poses) {
+      given_pose = options.poses->At(t, pose_gap_s);
+      if (!given_pose) {
+        flush();
+        ++out.unposed_frames;
+        out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: no given pose, skipped", i, t));
+        if (frame_done) frame_done(i - first + 1, last - first);
+        continue;
+      }
+    }
+    auto load_start = std::chrono::steady_clock::now();
+    Pending next;
+    next.index = i;
+    next.frame = LoadScanFrame(scan, i, use_rgb);
+    next.frame.world_from_depth = given_pose;
+    out.load_seconds += internal::MsSince(load_start) / 1000;
+    if (prepare_ahead) {
+      // The frame's own data only (cv::Mat shares the pixels; nothing writes them while the
+      // preparation runs), on the calling thread of the preparation alone (Prepare).
+      next.prepared = std::async(std::launch::async, [&reconstruction, frame = next.frame] {
+        return reconstruction.Prepare(frame, 1);
+      });
+    }
+    flush();
+    pending = std::move(next);
   }
+  flush();
   if (thermal) {
     feeder.Feed(reconstruction, true);
     const auto flush_start = std::chrono::steady_clock::now();
