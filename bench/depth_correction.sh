@@ -66,15 +66,18 @@ declare -A rigs=([uncorrected]="$scan/rig.yaml" [calibrated]="$out/calibration/r
                  [calibrated+plate]="$out/calibration-plate/rig.yaml"
                  [oracle]="$out/rig-oracle.yaml" [oracle-no-affine]="$out/rig-oracle-no-affine.yaml")
 base=""
-printf "%-18s %10s %8s %14s %10s\n" run "ATE (mm)" ratio "surface (mm)" "seconds"
+printf "%-18s %10s %8s %14s %12s %10s\n" run "ATE (mm)" ratio "surface (mm)" "shape (mm)" "seconds"
 for name in uncorrected calibrated calibrated+plate oracle oracle-no-affine; do
   start=$(date +%s.%N)
   # The surface error (model to truth/scene.ply, median) from the summary, when the scan has truth.
-  surface=$("$heatwave" reconstruct "$scan" --rig "${rigs[$name]}" --out "$out/reconstruct-$name" --overwrite \
-    --start-at-groundtruth 2>/dev/null | awk '/^Surface/ {print $6}')
+  # And after registering the model onto the truth (the summary's Shape line: the shape's own error).
+  summary=$("$heatwave" reconstruct "$scan" --rig "${rigs[$name]}" --out "$out/reconstruct-$name" --overwrite \
+    --start-at-groundtruth 2>/dev/null)
+  surface=$(echo "$summary" | awk '/^Surface/ {print $6}')
+  shape=$(echo "$summary" | sed -n 's/^Shape .*: median \([0-9.]*\) mm.*/\1/p')
   seconds=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
   a=$(ate "$out/reconstruct-$name/trajectory.txt")
   [ -n "$base" ] || base=$a
-  printf "%-18s %10.3f %8.3f %14s %10.1f\n" "$name" "$a" "$(awk -v a="$a" -v b="$base" 'BEGIN {print a / b}')" \
-    "${surface:--}" "$seconds"
+  printf "%-18s %10.3f %8.3f %14s %12s %10.1f\n" "$name" "$a" "$(awk -v a="$a" -v b="$base" 'BEGIN {print a / b}')" \
+    "${surface:--}" "${shape:--}" "$seconds"
 done

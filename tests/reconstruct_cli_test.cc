@@ -75,7 +75,7 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   const std::string json = Read(out / "reconstruct.json");
   for (const char* key : {"\"settings\"", "\"timings\"", "\"memory\"", "\"peak_rss_bytes\"",
                           "\"frames\"", "\"inliers\"", "\"condition\"", "\"warnings\"",
-                          "\"surface_to_truth\"", "\"registered\": {\"rotation_deg\": ", "\"constrained_directions\": 6", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
+                          "\"surface_to_truth\"", "\"registered\": {\"rotation_deg\": ", "\"constrained_directions\": 6", "\"prepare_ahead\": true", "\"prepare_ahead_ms\": ", "\"mean_prepare_ahead_ms\": ", "\"ate_m\"", "\"mean_track_ms\"", "\"raycasts\"",
                           "\"interval\": 8", "\"reuse_max_motion_m\": 0.04", "\"reuse_max_motion_deg\": 2.5",
                           "\"truncation_noise_sigmas\": 3", "\"noise_quadratic_per_m\": 0.0019", "\"noise_gate_sigmas\": 0",
                           "\"integrate_between_raycasts\": false", "\"integrated\": true",
