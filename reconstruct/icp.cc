@@ -615,8 +615,9 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
           Step(last_A, Eigen::Map<const Vector6d>(last.atb.data()), options.max_condition);
       if (!xi.allFinite()) break;
       estimate = estimate * core::Rigid3d::Exp(xi);
-      if (xi.head<3>().norm() < options.min_update_rad &&
-          xi.tail<3>().norm() < options.min_update_m) {
+      const double level_scale = static_cast<double>(1 << l);
+      if (xi.head<3>().norm() < options.min_update_rad * level_scale &&
+          xi.tail<3>().norm() < options.min_update_m * level_scale) {
         break;
       }
     }

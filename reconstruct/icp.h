@@ -56,7 +56,9 @@ struct IcpOptions {
   // (core::DepthCorrection::ScaleMeasured). In [0, 10].
   double noise_gate_sigmas = 0;
   DepthNoiseModel depth_noise;  // σ_z(z) for the gate (the pipeline passes the TSDF's)
-  // Stop a level when the update is smaller than this (rad for rotation, m for translation).
+  // Stop a level when the update is smaller than this (rad for rotation, m for translation)
+  // times 2^level: a level's pixel is 2^level times the full image's, and a coarse level's
+  // updates below that scale are association chatter its finer levels redo anyway.
   double min_update_rad = 1e-5;
   double min_update_m = 1e-5;
   // Failure checks on the finest level used:
