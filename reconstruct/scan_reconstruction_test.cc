@@ -76,5 +76,31 @@ TEST(ScanReconstruction, PreparationIsTheSameOnOneThreadOrAll) {
   EXPECT_THROW(reconstruction.Prepare(bad, 1), std::invalid_argument);
 }
 
+// One thread asked for, one thread used: nothing is prepared ahead; nor with prepare_ahead
+// off. The poses are the same either way.
+TEST(ScanReconstruction, OneThreadOrPrepareAheadOffPreparesInline) {
+  const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
+  ReconstructionOptions one_thread = test::PipelineTestOptions();
+  one_thread.num_threads = 1;
+  ScanReconstructionOptions first_ten;
+  first_ten.max_frames = 10;
+  Reconstruction single(scan.rig(), one_thread);
+  ReconstructScan(scan, single, first_ten);
+  ScanReconstructionOptions inline_options = first_ten;
+  inline_options.prepare_ahead = false;
+  Reconstruction serial(scan.rig(), test::PipelineTestOptions());
+  ReconstructScan(scan, serial, inline_options);
+  ASSERT_FALSE(single.frames().empty());
+  for (const FrameRecord& f : single.frames()) EXPECT_EQ(f.prepare_ahead_ms, 0);
+  for (const FrameRecord& f : serial.frames()) EXPECT_EQ(f.prepare_ahead_ms, 0);
+  ASSERT_EQ(single.trajectory().size(), serial.trajectory().size());
+  for (size_t i = 0; i < single.trajectory().size(); ++i) {
+    EXPECT_EQ(core::ComparePoses(single.trajectory().poses()[i].world_from_sensor,
+                                 serial.trajectory().poses()[i].world_from_sensor)
+                  .translation_m,
+              0.0);
+  }
+}
+
 }  // namespace
 }  // namespace hw::reconstruct
