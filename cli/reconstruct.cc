@@ -255,22 +255,30 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     points.reserve(mesh.positions.size());
     for (const Eigen::Vector3f& p : mesh.positions) points.push_back(truth_from_model * p.cast<double>());
     r.surface = reconstruct::SummarizeDistances(reconstruct::PointToMeshDistances(points, truth_grid, kSurfaceSearchM));
-    // The shape's own error: the model registered onto the truth first (surface_eval.h), the
-    // registration's size being the map's pose error.
-    r.registration = reconstruct::RegisterToMesh(points, truth_grid, reconstruct::MeshRegistrationOptions{});
-    std::vector<Eigen::Vector3d> registered = points;
-    for (Eigen::Vector3d& p : registered) p = r.registration->reference_from_points * p;
-    r.surface_registered =
-        reconstruct::SummarizeDistances(reconstruct::PointToMeshDistances(registered, truth_grid, kSurfaceSearchM));
     if (thermal && truth.Find("temperature_c")) {
-      // Temperatures are compared in the world frame, not the registered one: the registration
-      // fixes distances to the surface, not sliding along it, which is what pairs a vertex
-      // with its true temperature (registered, eqT4's errors rose by 0.004–0.008 K).
+      // Temperatures are compared in the world frame, not the registered one below: the
+      // registration fixes distances to the surface, not sliding along it, which is what
+      // pairs a vertex with its true temperature (registered, eqT4's errors rose by
+      // 0.004–0.008 K).
       std::vector<Eigen::Vector3f> points_in_truth;
       points_in_truth.reserve(points.size());
       for (const Eigen::Vector3d& p : points) points_in_truth.push_back(p.cast<float>());
       EvaluateThermalMethods(*thermal, mesh.positions, points_in_truth, mesh.faces,
                              reconstruct::TemperatureTruthFromPly(truth, truth_mesh), *r.thermal);
+    }
+    // The shape's own error: the model registered onto the truth first (surface_eval.h), the
+    // registration's size being the map's pose error. Not reported when no vertex came
+    // within reach of the truth (nothing to register on).
+    const reconstruct::MeshRegistration registration =
+        reconstruct::RegisterToMesh(points, truth_grid, reconstruct::MeshRegistrationOptions{});
+    if (registration.iterations > 0) {
+      for (Eigen::Vector3d& p : points) p = registration.reference_from_points * p;
+      r.registration = registration;
+      r.surface_registered =
+          reconstruct::SummarizeDistances(reconstruct::PointToMeshDistances(points, truth_grid, kSurfaceSearchM));
+    } else {
+      r.warnings.push_back(core::StringPrintf("shape not measured: too few model vertices within %.0f mm of %s",
+                                              1000 * kSurfaceSearchM, truth_mesh.c_str()));
     }
   }
 

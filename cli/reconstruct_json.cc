@@ -243,15 +243,18 @@ std::string ReconstructReportJson(const ReconstructCommandOptions& options, cons
         .Add("rpe_m", ErrorStatsJson(r.evaluation->rpe_m))
         .Add("rpe_deg", ErrorStatsJson(r.evaluation->rpe_deg));
     if (r.surface) {
+      // The distances' figures, world frame or registered.
+      const auto add_stats = [](JsonObject& o, const reconstruct::SurfaceDistanceStats& d) {
+        o.Int("beyond_search", d.beyond_search)
+            .Number("median_m", d.median_m)
+            .Number("mean_m", d.mean_m)
+            .Number("rms_m", d.rms_m)
+            .Number("p90_m", d.p90_m)
+            .Number("max_m", d.max_m);
+      };
       JsonObject surface;
-      surface.Int("vertices", r.surface->points)
-          .Int("beyond_search", r.surface->beyond_search)
-          .Number("search_radius_m", kSurfaceSearchM)
-          .Number("median_m", r.surface->median_m)
-          .Number("mean_m", r.surface->mean_m)
-          .Number("rms_m", r.surface->rms_m)
-          .Number("p90_m", r.surface->p90_m)
-          .Number("max_m", r.surface->max_m);
+      surface.Int("vertices", r.surface->points).Number("search_radius_m", kSurfaceSearchM);
+      add_stats(surface, *r.surface);
       if (r.surface_registered && r.registration) {
         JsonObject registered;
         registered.Number("rotation_deg", r.registration->rotation_deg)
@@ -259,13 +262,8 @@ std::string ReconstructReportJson(const ReconstructCommandOptions& options, cons
             .Int("iterations", r.registration->iterations)
             .Bool("converged", r.registration->converged)
             .Int("correspondences", r.registration->correspondences)
-            .Int("constrained_directions", r.registration->constrained_directions)
-            .Int("beyond_search", r.surface_registered->beyond_search)
-            .Number("median_m", r.surface_registered->median_m)
-            .Number("mean_m", r.surface_registered->mean_m)
-            .Number("rms_m", r.surface_registered->rms_m)
-            .Number("p90_m", r.surface_registered->p90_m)
-            .Number("max_m", r.surface_registered->max_m);
+            .Int("constrained_directions", r.registration->constrained_directions);
+        add_stats(registered, *r.surface_registered);
         surface.Add("registered", registered.str());
       }
       eval.Add("surface_to_truth", surface.str());

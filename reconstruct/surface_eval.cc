@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "reconstruct/option_check.h"
+#include "reconstruct/row_bands.h"
 
 namespace hw::reconstruct {
 
@@ -21,9 +22,12 @@ std::vector<std::optional<double>> PointToMeshDistances(
 std::vector<std::optional<double>> PointToMeshDistances(const std::vector<Eigen::Vector3d>& points,
                                                         const TriangleGrid& grid, double max_distance_m) {
   std::vector<std::optional<double>> out(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (const auto closest = grid.FindClosest(points[i], max_distance_m)) out[i] = closest->distance_m;
-  }
+  // Independent queries, each writing its own element: the same result on any thread count.
+  ForEachBand(static_cast<int>(points.size()), 0, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      if (const auto closest = grid.FindClosest(points[i], max_distance_m)) out[i] = closest->distance_m;
+    }
+  });
   return out;
 }
 
@@ -89,21 +93,26 @@ MeshRegistration RegisterToMesh(const std::vector<Eigen::Vector3d>& points, cons
   std::vector<double> distance(sample.size());
   std::vector<char> found(sample.size());
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    // Correspondences, each point on its own (in parallel; the sums below run in order).
+    ForEachBand(static_cast<int>(sample.size()), 0, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        moved[i] = transform * sample[i];
+        const auto closest = grid.FindClosest(moved[i], options.max_distance_m);
+        found[i] = closest.has_value();
+        if (!closest) continue;
+        target[i] = closest->on_face.point;
+        distance[i] = closest->distance_m;
+        // The distance's gradient: towards the point from its closest mesh point; on the mesh
+        // itself, the face normal (the sign does not matter to a squared residual).
+        const Eigen::Vector3i& f = faces[closest->face];
+        direction[i] = distance[i] > 1e-12
+                           ? Eigen::Vector3d((moved[i] - target[i]) / distance[i])
+                           : (vertices[f[1]] - vertices[f[0]]).cross(vertices[f[2]] - vertices[f[0]]).normalized();
+      }
+    });
     std::vector<double> found_distances;
     for (size_t i = 0; i < sample.size(); ++i) {
-      moved[i] = transform * sample[i];
-      const auto closest = grid.FindClosest(moved[i], options.max_distance_m);
-      found[i] = closest.has_value();
-      if (!closest) continue;
-      target[i] = closest->on_face.point;
-      distance[i] = closest->distance_m;
-      found_distances.push_back(distance[i]);
-      // The distance's gradient: towards the point from its closest mesh point; on the mesh
-      // itself, the face normal (the sign does not matter to a squared residual).
-      const Eigen::Vector3i& f = faces[closest->face];
-      direction[i] = distance[i] > 1e-12
-                         ? Eigen::Vector3d((moved[i] - target[i]) / distance[i])
-                         : (vertices[f[1]] - vertices[f[0]]).cross(vertices[f[2]] - vertices[f[0]]).normalized();
+      if (found[i]) found_distances.push_back(distance[i]);
     }
     if (found_distances.size() < 6) break;
     std::nth_element(found_distances.begin(), found_distances.begin() + found_distances.size() / 2,

@@ -25,7 +25,8 @@ struct SurfaceDistanceStats {
 // units (m). Triangles are binned in a uniform grid of max_distance_m cells (TriangleGrid),
 // so each query looks at the triangles of its 27 neighbouring cells only: distances beyond
 // max_distance_m are not measured (nullopt). Exact point-to-triangle distance (closest point
-// on the triangle, its edges or vertices). Asserts max_distance_m > 0 and face indices in range.
+// on the triangle, its edges or vertices). Runs on all cores (ForEachBand); the result does
+// not depend on their number. Asserts max_distance_m > 0 and face indices in range.
 std::vector<std::optional<double>> PointToMeshDistances(
     const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& vertices,
     const std::vector<Eigen::Vector3i>& faces, double max_distance_m);

@@ -285,6 +285,37 @@ TEST(ReconstructCli, WrongSizeDepthFrameIsOneLineNamingTheFile) {
   EXPECT_EQ(CountLines(r8.output), 1) << r8.output;
 }
 
+// The truth mesh the model is measured against (synthetic scans): one nowhere near the model
+// leaves the shape unmeasured with a warning, not a registration of nothing; a truncated one
+// is one line naming it, exit 1, and no output.
+TEST(ReconstructCli, ATruthMeshOutOfReachOrTruncatedIsSaidSo) {
+  const fs::path scan = CopyOfScan("far-truth");
+  const fs::path truth = scan / "truth" / "scene.ply";
+  hw::core::PlyMesh far;
+  far.SetPositions({{100, 0, 0}, {101, 0, 0}, {100, 1, 0}});
+  far.faces.emplace_back(0, 1, 2);
+  hw::core::WritePly(truth, far);
+  const fs::path out = FreshPath("out");
+  const Result r = Heatwave("reconstruct " + scan.string() + " --out " + out.string() +
+                            " --voxel-size 0.01 --start-at-groundtruth");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("shape not measured: too few model vertices within 50 mm of"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("Shape      "), std::string::npos) << r.output;
+  EXPECT_EQ(Read(out / "reconstruct.json").find("\"registered\""), std::string::npos);
+
+  const std::string bytes = Read(truth);
+  hw::core::WriteFileAtomically(truth, bytes.substr(0, bytes.size() - 20));
+  const fs::path out2 = FreshPath("out");
+  const Result bad = Heatwave("reconstruct " + scan.string() + " --out " + out2.string() +
+                              " --start-at-groundtruth" + kOptions);
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_EQ(CountLines(bad.output), 1) << bad.output;
+  EXPECT_NE(bad.output.find("scene.ply"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(out2 / "model.ply"));
+  EXPECT_FALSE(fs::exists(out2 / "reconstruct.json"));
+}
+
 TEST(ReconstructCli, MissingFramesAreSkippedAndCounted) {
   const fs::path scan = CopyOfScan("missing");
   const hw::core::Scan opened = hw::core::Scan::Open(scan);
