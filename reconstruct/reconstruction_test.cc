@@ -26,7 +26,7 @@ using test::TestScanOptions;
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-ReconstructionOptions TestOptions() { return test::PipelineTestOptions(); }
+using test::PipelineTestOptions;
 
 struct Outcome {
   TrajectoryEval eval;
@@ -51,7 +51,7 @@ Outcome ReconstructAndEvaluate(const core::Scan& scan, const ReconstructionOptio
 
 TEST(Reconstruction, SmoothScanTracksEveryFrameWithinMillimetres) {
   const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  const Outcome run = ReconstructAndEvaluate(scan, TestOptions());
+  const Outcome run = ReconstructAndEvaluate(scan, PipelineTestOptions());
   int fused = 0;
   for (const FrameRecord& f : run.frames) fused += f.fused;
   EXPECT_EQ(fused, static_cast<int>(run.frames.size()));
@@ -66,7 +66,7 @@ TEST(Reconstruction, SmoothScanTracksEveryFrameWithinMillimetres) {
 TEST(Reconstruction, ModelSurfaceLiesOnTheTruthMesh) {
   const fs::path folder = CachedScan("smooth", TestScanOptions());
   const core::Scan scan = core::Scan::Open(folder);
-  const Outcome run = ReconstructAndEvaluate(scan, TestOptions());
+  const Outcome run = ReconstructAndEvaluate(scan, PipelineTestOptions());
   ASSERT_GT(run.mesh.faces.size(), 1000u);
   const core::PlyMesh truth = core::ReadPly(folder / "truth" / "scene.ply");
   std::vector<Eigen::Vector3d> points;
@@ -92,7 +92,7 @@ TEST(Reconstruction, ModelSurfaceLiesOnTheTruthMesh) {
 // tracked frame casts its own view, with colour for the photometric term, and tracks.
 TEST(Reconstruction, TrackedFramesAfterPosedOnesTrackAgainstAFreshView) {
   const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  Reconstruction reconstruction(scan.rig(), TestOptions());
+  Reconstruction reconstruction(scan.rig(), PipelineTestOptions());
   int posed_raycasts = 0;
   for (int i = 0; i < scan.NumFrames(Stream::kDepth); ++i) {
     if (!scan.FrameExists(Stream::kDepth, i)) continue;
@@ -127,9 +127,9 @@ TEST(Reconstruction, RigDepthCorrectionIsAppliedToIncomingDepth) {
   }
   corrected_rig.depth_correction = correction;
   const cv::Mat offsets = core::DepthOffsetMap(correction, scan.rig().depth);
-  Reconstruction with_rig(corrected_rig, TestOptions());
-  Reconstruction beforehand(scan.rig(), TestOptions());
-  Reconstruction uncorrected(scan.rig(), TestOptions());
+  Reconstruction with_rig(corrected_rig, PipelineTestOptions());
+  Reconstruction beforehand(scan.rig(), PipelineTestOptions());
+  Reconstruction uncorrected(scan.rig(), PipelineTestOptions());
   for (int i = 0; i < 8; ++i) {
     if (!scan.FrameExists(Stream::kDepth, i)) continue;
     FrameInput frame = LoadScanFrame(scan, i, true);
@@ -153,7 +153,7 @@ TEST(Reconstruction, RigDepthCorrectionIsAppliedToIncomingDepth) {
 
 TEST(Reconstruction, GarbageFrameIsLostNotFusedAndTrackingRecovers) {
   const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  Reconstruction reconstruction(scan.rig(), TestOptions());
+  Reconstruction reconstruction(scan.rig(), PipelineTestOptions());
   const int n = std::min(20, scan.NumFrames(Stream::kDepth));
   int bad_index = -1;
   for (int i = 0; i < n; ++i) {
@@ -187,7 +187,7 @@ TEST(Reconstruction, GarbageFrameIsLostNotFusedAndTrackingRecovers) {
 
 TEST(Reconstruction, FramesWithoutDepthAreSkipped) {
   const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  Reconstruction reconstruction(scan.rig(), TestOptions());
+  Reconstruction reconstruction(scan.rig(), PipelineTestOptions());
   FrameInput frame;
   frame.timestamp_s = 1;
   frame.depth_m = cv::Mat::zeros(scan.rig().depth.height, scan.rig().depth.width, CV_32FC1);
@@ -201,7 +201,7 @@ TEST(Reconstruction, FramesWithoutDepthAreSkipped) {
 
 TEST(Reconstruction, WrongFramesThrow) {
   const core::Scan scan = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  Reconstruction reconstruction(scan.rig(), TestOptions());
+  Reconstruction reconstruction(scan.rig(), PipelineTestOptions());
   FrameInput frame;
   frame.timestamp_s = 1;
   frame.depth_m = cv::Mat::zeros(10, 10, CV_32FC1);
@@ -236,7 +236,7 @@ PoseErrors ErrorsFromTruth(const core::Scan& scan, const Reconstruction& reconst
 TEST(Reconstruction, JerkyScanTracksOrReportsLostFramesAndRecovers) {
   const core::Scan scan =
       core::Scan::Open(CachedScan("jerky", TestScanOptions("equipment-small", fixtures::MotionKind::kJerky, 2.0)));
-  Reconstruction reconstruction(scan.rig(), TestOptions());
+  Reconstruction reconstruction(scan.rig(), PipelineTestOptions());
   ScanReconstructionOptions options;
   options.start_at_groundtruth = true;
   ReconstructScan(scan, reconstruction, options);
@@ -284,7 +284,7 @@ TEST(Reconstruction, JerkyScanTracksOrReportsLostFramesAndRecovers) {
 TEST(Reconstruction, ARelocalisationThatContradictsTheModelIsRefused) {
   const core::Scan scan =
       core::Scan::Open(CachedScan("jerky", TestScanOptions("equipment-small", fixtures::MotionKind::kJerky, 2.0)));
-  ReconstructionOptions o = TestOptions();
+  ReconstructionOptions o = PipelineTestOptions();
   o.prealign.max_depth_misfit_ratio = 0;
   Reconstruction reconstruction(scan.rig(), o);
   ScanReconstructionOptions options;
@@ -404,7 +404,7 @@ TEST(Reconstruction, ARigReturningToAMappedPlaceRelocalisesFromAKeyframe) {
   int start = 2;
   const auto run = [&](int candidates, bool garbage, std::vector<FrameRecord>* returned,
                        std::vector<core::Rigid3d>* poses, std::vector<core::Rigid3d>* earlier) {
-    ReconstructionOptions options = TestOptions();
+    ReconstructionOptions options = PipelineTestOptions();
     options.keyframes.candidates = candidates;
     Reconstruction reconstruction(scan.rig(), options);
     reconstruction.SetInitialPose(*scan.groundtruth()->At(scan.Timestamp(Stream::kDepth, 0)));
@@ -523,7 +523,7 @@ TEST(Reconstruction, ARigReturningToAMappedPlaceRelocalisesFromAKeyframe) {
 // raycast: raycast_ms 0), any other frame raycasts at once, and tracking stays as accurate.
 TEST(Reconstruction, ModelViewIsReusedForRaycastIntervalFrames) {
   const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  ReconstructionOptions every = TestOptions(), third = TestOptions();
+  ReconstructionOptions every = PipelineTestOptions(), third = PipelineTestOptions();
   every.raycast_interval = 1;
   third.raycast_interval = 3;
   third.reuse_max_motion_m = 1e3;  // the interval alone (the motion rule: the test below)
@@ -597,7 +597,7 @@ core::Rigid3d LeadPose(const core::Rigid3d& previous, const core::Rigid3d& pose,
 // trajectory. Tracking stays as accurate as casting after every frame.
 TEST(Reconstruction, ModelViewIsCastAgainWhenTheCameraMovedFarFromIt) {
   const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  ReconstructionOptions every = TestOptions(), by_motion = TestOptions(), by_count = TestOptions();
+  ReconstructionOptions every = PipelineTestOptions(), by_motion = PipelineTestOptions(), by_count = PipelineTestOptions();
   every.raycast_interval = 1;
   by_motion.raycast_interval = by_count.raycast_interval = 8;
   // Below this scan's motion over a few frames (1 s, 160×120: 3-10 mm and 0.2-0.6° per
@@ -648,7 +648,7 @@ TEST(Reconstruction, ModelViewIsCastAgainWhenTheCameraMovedFarFromIt) {
 // the frame's own pose (the view's distance to the frames using it is bounded alike).
 TEST(Reconstruction, ViewsCastAheadServeMoreFrames) {
   const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  ReconstructionOptions ahead = TestOptions(), own = TestOptions();
+  ReconstructionOptions ahead = PipelineTestOptions(), own = PipelineTestOptions();
   ahead.reuse_lead = 1;
   own.reuse_lead = 0;
   // This 160×120 scan's motion (3-10 mm, 0.2-0.6° per frame) under limits a few frames wide,
@@ -685,7 +685,7 @@ TEST(Reconstruction, ViewsCastAheadServeMoreFrames) {
 // ModelSurfaceLiesOnTheTruthMesh).
 TEST(Reconstruction, FramesBetweenRaycastsAreTrackedButNotIntegrated) {
   const core::Scan smooth = core::Scan::Open(CachedScan("smooth", TestScanOptions()));
-  ReconstructionOptions all = TestOptions(), between = TestOptions();
+  ReconstructionOptions all = PipelineTestOptions(), between = PipelineTestOptions();
   all.integrate_between_raycasts = true;
   between.integrate_between_raycasts = false;
   const Outcome reference = ReconstructAndEvaluate(smooth, all);
