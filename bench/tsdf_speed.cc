@@ -5,10 +5,12 @@
 //
 //   bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] [--no-colour]
 //                         [--repeat R] [--dump FILE] [--thermal] [--step S] [--max-depth M] [--fine]
+//                         [--fixed-steps]
 //
 // --step S integrates every S-th depth frame (the pipeline integrates about every third on
 // a smooth sweep); --max-depth the range (the TSDF default 4 m; rigs say 5); --fine updates
-// every voxel of far blocks too (TsdfOptions::coarse_far off), to compare the two.
+// every voxel of far blocks too (TsdfOptions::coarse_far off), to compare the two;
+// --fixed-steps marches every ray in steps of the truncation (RaycastOptions::band_steps off).
 //
 // SCAN needs groundtruth.txt (e.g. heatwave synth --scene equipment --size full). Depth is
 // fused with the pinhole part of the depth camera (its distortion is ignored: timing only).
@@ -48,12 +50,13 @@ int Run(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_tsdf_speed SCAN [--frames N] [--threads T] [--voxel M] [--truncation M] "
-                 "[--no-colour] [--repeat R] [--dump FILE] [--thermal] [--step S] [--max-depth M] [--fine]\n");
+                 "[--no-colour] [--repeat R] [--dump FILE] [--thermal] [--step S] [--max-depth M] [--fine] "
+                 "[--fixed-steps]\n");
     return 1;
   }
   const std::string folder = argv[1];
   int frames = 60, threads = 2, repeat = 1, step = 1;
-  bool colour = true, thermal = false;
+  bool colour = true, thermal = false, fixed_steps = false;
   std::string dump;
   hw::reconstruct::TsdfOptions options;
   for (int i = 2; i < argc; ++i) {
@@ -76,6 +79,7 @@ int Run(int argc, char** argv) {
     else if (a == "--step") step = std::max(1, std::atoi(next()));  // every step-th depth frame (the pipeline: ~3)
     else if (a == "--max-depth") options.max_depth_m = std::atof(next());
     else if (a == "--fine") options.coarse_far = false;  // every voxel of far blocks updated
+    else if (a == "--fixed-steps") fixed_steps = true;  // RaycastOptions::band_steps off
     else {
       std::fprintf(stderr, "bench_tsdf_speed: unknown option %s\n", a.c_str());
       return 1;
@@ -94,6 +98,7 @@ int Run(int argc, char** argv) {
   const hw::core::Rig& rig = scan.rig();
   const auto camera = hw::reconstruct::PinholeCamera::Of(rig.depth);
   hw::reconstruct::RaycastOptions raycast;
+  raycast.band_steps = !fixed_steps;
   raycast.min_depth_m = options.min_depth_m;
   raycast.max_depth_m = options.max_depth_m;
   raycast.num_threads = threads;

@@ -454,6 +454,10 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--raycast-level", r.raycast_level,
                  "track against the model raycast at this pyramid level (0 full, 1 half resolution)")
       ->capture_default_str();
+  app.add_option("--raycast-band-steps", r.raycast.band_steps,
+                 "march rays in steps of each block's narrowest fused band (fewer samples before far surfaces) "
+                 "instead of the fixed truncation: true or false")
+      ->capture_default_str();
   app.add_option("--raycast-interval", r.raycast_interval,
                  "fused frames between model raycasts for tracking (1: after every frame)")
       ->capture_default_str();

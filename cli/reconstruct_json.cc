@@ -50,6 +50,7 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("photometric_weight", r.icp.photometric_weight)
       .Bool("photometric_offset", r.icp.photometric_offset);
   raycast.Number("step_fraction", r.raycast.step_fraction)
+      .Bool("band_steps", r.raycast.band_steps)
       .Int("level", r.raycast_level)
       .Int("interval", r.raycast_interval)
       .Bool("integrate_between_raycasts", r.integrate_between_raycasts)

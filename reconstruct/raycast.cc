@@ -179,6 +179,8 @@ struct RayMarch {
   Eigen::Matrix3f rotation;  // world_from_camera
   Eigen::Vector3f origin;    // camera centre, world frame (m)
   float truncation_m = 0;
+  float inv_truncation_m = 0;
+  bool band_steps = true;  // RaycastOptions::band_steps
   float min_step = 0;  // RaycastOptions::step_fraction
   float block_m = 0;
   bool with_colour = false;
@@ -291,14 +293,38 @@ struct RayMarch {
       lane.sdf_previous = sdf;
       lane.have_previous = true;
       // sdf is in units of each reading's band (truncation_m or wider at range: TsdfOptions::
-      // TruncationAt), so sdf · truncation_m never oversteps the distance to the surface.
-      t += std::max(sdf, min_step) * lane.t_per_truncation;
+      // TruncationAt), so sdf · (the narrowest band of the readings the cell's blocks hold,
+      // VoxelBlock::min_band_m) never oversteps the distance to the surface, nor does
+      // sdf · truncation_m, with more margin (RaycastOptions::band_steps).
+      const float band_ratio = band_steps ? std::max(MinBand(lane) * inv_truncation_m, 1.0f) : 1.0f;
+      t += std::max(sdf * band_ratio, min_step) * lane.t_per_truncation;
     }
     if (!(t <= lane.t_end)) return Outcome::kMiss;
     lane.p = origin + t * lane.direction;
     lane.cell = lane.sampler.Locate(lane.p);
     lane.sampler.Prefetch(lane.cell);
     return Outcome::kGoing;
+  }
+
+  // The narrowest VoxelBlock::min_band_m of the blocks the lane's cell reads (0 if one is
+  // unknown, which the caller reads as truncation_m); the cell's blocks exist (its sample
+  // was kOk, which needs all eight voxels observed).
+  float MinBand(Lane& lane) const {
+    constexpr int m = kBlockSide - 1;
+    const TsdfSampler::Cell& c = lane.cell;
+    float band = c.block->min_band_m;
+    const int ex = (c.ix & m) == m, ey = (c.iy & m) == m, ez = (c.iz & m) == m;
+    if ((ex | ey | ez) == 0) return band;
+    const int kx = c.ix >> kBlockShift, ky = c.iy >> kBlockShift, kz = c.iz >> kBlockShift;
+    for (int dz = 0; dz <= ez; ++dz) {
+      for (int dy = 0; dy <= ey; ++dy) {
+        for (int dx = 0; dx <= ex; ++dx) {
+          if ((dx | dy | dz) == 0) continue;
+          band = std::min(band, lane.sampler.Block(kx + dx, ky + dy, kz + dz)->min_band_m);
+        }
+      }
+    }
+    return band;
   }
 
   // The zero between ta (sdf sa > 0) and tb (sb <= 0): regula falsi on the trilinear field,
@@ -385,6 +411,8 @@ RayMarch MakeMarch(const TsdfVolume& volume, const core::Rigid3d& world_from_cam
   march.rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
   march.origin = world_from_camera.translation.cast<float>();
   march.truncation_m = static_cast<float>(volume.options().truncation_m);
+  march.inv_truncation_m = 1.0f / march.truncation_m;
+  march.band_steps = options.band_steps;
   march.min_step = static_cast<float>(options.step_fraction);
   march.block_m = volume.voxel_size_m() * kBlockSide;
   march.with_colour = options.with_colour;

@@ -21,6 +21,14 @@ struct RaycastOptions {
   // March step inside the truncation band, as a fraction of truncation_m, in (0, 1]. Rays
   // skip absent blocks whole; inside allocated ones they step by max(sdf, this) · truncation.
   double step_fraction = 0.5;
+  // Step by each block's narrowest band instead of truncation_m: a far reading's sdf is in
+  // units of its wider band (TsdfOptions::TruncationAt: 7.8 cm at 4 m at the defaults), so a
+  // ray approaching a surface fused only from far covers the distance in a step or two
+  // rather than closing it a quarter band at a time. VoxelBlock::min_band_m bounds the
+  // distance (as truncation_m does, with less margin); a cell across blocks takes the
+  // narrowest of theirs. The map is the same surfaces, refined to the same tolerance (the
+  // bracketing samples differ); false: every step in units of truncation_m (for comparison).
+  bool band_steps = true;
   bool with_colour = false;  // also fill PointMap::colours (black where none)
   int num_threads = 0;       // 0: hardware concurrency; coarse chunks as TsdfOptions
 

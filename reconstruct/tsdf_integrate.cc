@@ -726,6 +726,9 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   // Blocks whose centre lies beyond this depth, never seen nearer, are updated coarsely.
   const float coarse_beyond_m = static_cast<float>(options_.CoarseBeyondM(std::min(camera.fx, camera.fy)));
   const Eigen::Vector3f centre_offset = cw_rotation * Eigen::Vector3f::Constant(0.5f * (block_m - voxel_m));
+  // The block's voxel centres lie within this of its centre (half the diagonal of the
+  // centres' cube), so its nearest is at least z_centre − this deep.
+  const float near_offset_m = 0.5f * (block_m - voxel_m) * std::sqrt(3.0f);
   std::vector<int64_t> updated(num_threads, 0);
   std::vector<int> coarse_blocks(num_threads, 0);
   std::atomic<size_t> next_block{0};
@@ -752,6 +755,15 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
         const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
         const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
         if ((corner_in_camera + centre_offset).z() <= coarse_beyond_m) block.seen_near = true;
+        {
+          // A reading updates a voxel at depth z only from d >= z − band(d) >= z − band(z)
+          // (hidden beyond its band): its band is at least band(max(z_near − band(z_near),
+          // the noise model's minimum)), z_near the block's nearest voxel centre.
+          const float z_near = std::max((corner_in_camera + centre_offset).z() - near_offset_m, 0.0f);
+          const float d_low = std::max(z_near - noise_band.At(z_near), noise_band.reference_m);
+          const float reading_band_m = noise_band.At(d_low);
+          block.min_band_m = block.min_band_m > 0 ? std::min(block.min_band_m, reading_band_m) : reading_band_m;
+        }
         coarse_count += !block.seen_near;
         count += update_block(f, corner_in_camera, block.voxels.data(), !block.seen_near);
       }

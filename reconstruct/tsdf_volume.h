@@ -157,6 +157,12 @@ struct alignas(64) VoxelBlock {
   // Updated at least once from nearer than TsdfOptions::CoarseBeyondM: every voxel takes its
   // own reading from then on (false: only the even ones, the others interpolated).
   bool seen_near = false;
+  // The narrowest band (m) of any reading fused into the block — a lower bound, from the
+  // nearest depth a reading that updated it can have — or 0 when unknown (a block written
+  // other than by Integrate and CarveFreeSpace): a voxel's sdf · min_band_m never exceeds
+  // the distance the readings put between it and their surface, so the ray march steps by
+  // it (truncation_m when 0).
+  float min_band_m = 0;
 };
 
 // What one Integrate() call did.

@@ -369,6 +369,66 @@ TEST(TsdfIntegrate, FarSurfaceIsNotPushedBackByNoise) {
 
 // The truncated projective distance of a frontal plane at depth `plane_z` is exact:
 // sdf = min(1, (plane_z − z) / truncation) for every voxel in view up to one truncation behind.
+// VoxelBlock::min_band_m, which the ray march steps by, must never exceed the band of a
+// reading fused into the block (else a step could pass a surface): a frontal plane at 3.5 m
+// (every reading's band 5.9 cm at the defaults) leaves each block it touched a bound in
+// [the bound's own slack, band(3.5 m)]; the same plane from 1 m away lowers the blocks it
+// reaches to the fixed band; carving lowers a block to the carved range's band; a block made
+// otherwise reads 0 (unknown: the march then keeps truncation_m).
+TEST(TsdfIntegrate, BlocksKeepALowerBoundOfTheirReadingsBands) {
+  const PinholeCamera camera = SmallCamera();
+  TsdfOptions options;  // 5 mm voxels, 2 cm band widened to 3 σ of the depth noise
+  TsdfVolume volume(options);
+  const TsdfOptions::NoiseBand band = options.Band();
+  const float far_m = 3.5f, near_m = 1.0f;
+  const core::Rigid3d far_pose = core::Rigid3d::Identity();
+  volume.Integrate(test::RenderPlane(camera, far_pose, Eigen::Vector3d::UnitZ(), far_m), camera, far_pose);
+  const float band_far = band.At(far_m);
+  ASSERT_GT(band_far, 2.5f * static_cast<float>(options.truncation_m));  // the case that matters
+  // The bound's slack: readings from z_near − band(z_near) of a block's nearest voxel, which
+  // lies up to half the centres' diagonal (1.52 cm) before its centre, itself up to the band
+  // and half a block's depth (2 cm) before the plane.
+  const float block_m = static_cast<float>(options.voxel_size_m) * kBlockSide;
+  const float lowest_z = far_m - band_far - 0.5f * block_m - 0.5f * std::sqrt(3.0f) * block_m;
+  const float slack_band = band.At(lowest_z - band.At(lowest_z));
+  int blocks = 0;
+  volume.ForEachBlock([&](const VoxelBlock& block) {
+    ++blocks;
+    EXPECT_LE(block.min_band_m, band_far);
+    EXPECT_GE(block.min_band_m, slack_band);
+  });
+  ASSERT_GT(blocks, 100);
+  RecordProperty("band_far_m", std::to_string(band_far));
+  RecordProperty("slack_band_m", std::to_string(slack_band));
+
+  // From 1 m: the blocks around the plane's middle are seen again, with the fixed band.
+  const core::Rigid3d near_pose{Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, far_m - near_m)};
+  volume.Integrate(test::RenderPlane(camera, near_pose, Eigen::Vector3d::UnitZ(), far_m), camera, near_pose);
+  int narrowed = 0, kept = 0;
+  volume.ForEachBlock([&](const VoxelBlock& block) {
+    EXPECT_LE(block.min_band_m, band_far);
+    if (block.min_band_m == static_cast<float>(options.truncation_m)) {
+      ++narrowed;
+    } else {
+      ++kept;
+    }
+  });
+  EXPECT_GT(narrowed, 20);
+  EXPECT_GT(kept, 20);  // the outer blocks the near view does not reach
+
+  // Carving through a point of the plane outside the near view (something left), from
+  // 1.5 m: that block's bound falls to the band at 1.5 m (the fixed one).
+  const Eigen::Vector3f point(1.2f, 0.9f, far_m);
+  const VoxelBlock* carved = volume.FindBlock(
+      BlockKey(FloorToInt(point.x() / block_m), FloorToInt(point.y() / block_m), FloorToInt(point.z() / block_m)));
+  ASSERT_NE(carved, nullptr);
+  ASSERT_GT(carved->min_band_m, band.At(1.5f));
+  EXPECT_GT(volume.CarveFreeSpace({point}, Eigen::Vector3f(1.2f, 0.9f, far_m - 1.5f)), 0);
+  EXPECT_EQ(carved->min_band_m, band.At(1.5f));
+  // A block made by hand has no readings: unknown.
+  EXPECT_EQ(volume.GetOrCreateBlock(BlockKey(500, 500, 500)).min_band_m, 0.0f);
+}
+
 TEST(TsdfIntegrate, FrontalPlaneIsExact) {
   const PinholeCamera camera = SmallCamera();
   TsdfVolume volume(SmallOptions());
