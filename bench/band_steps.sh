@@ -14,28 +14,11 @@
 # equipment|building --size full --duration 10 --no-thermal --seed 1` (13 and 21 min on 2
 # cores): the bands widen beyond 2.1 m, so the far `building` sweep gains most.
 set -euo pipefail
-build=build
 out=build/bench-results/band-steps
-scans=""
-rig=""
-rounds=3
 extra=""
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --build) build=$2; shift 2 ;;
-    --out) out=$2; shift 2 ;;
-    --rounds) rounds=$2; shift 2 ;;
-    --scans) scans=$2; shift 2 ;;
-    --rig) rig=$2; shift 2 ;;
-    --args) extra=$2; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
-    *) echo "unknown argument $1" >&2; exit 2 ;;
-  esac
-done
-[ -n "$scans" ] || { echo "--scans is required" >&2; exit 2; }
-heatwave="$build/cli/heatwave"
-mkdir -p "$out"
-median() { tr ' ' '\n' | grep -v '^$' | sort -g | awk '{a[NR] = $1} END {print (NR % 2) ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2}'; }
+usage=2,15
+# shellcheck source=bench/alternate_common.sh
+source "$(dirname "$0")/alternate_common.sh"
 # reconstruct.json → "fps raycasts raycast_ms thermal_raycast_ms ate_mm"
 figures() {
   python3 - "$1" <<'PY'

@@ -11,27 +11,11 @@
 # each scan's own. Scans: e.g. the 10 s full-size renders `heatwave synth --scene
 # equipment|building --size full --duration 10 --no-thermal --seed 1` (13 and 21 min on 2 cores).
 set -euo pipefail
-build=build
 out=build/bench-results/prepare-ahead
-scans=""
-rig=""
-rounds=3
 extra="--no-thermal"
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --build) build=$2; shift 2 ;;
-    --out) out=$2; shift 2 ;;
-    --rounds) rounds=$2; shift 2 ;;
-    --scans) scans=$2; shift 2 ;;
-    --rig) rig=$2; shift 2 ;;
-    --args) extra=$2; shift 2 ;;
-    *) echo "unknown argument $1" >&2; exit 2 ;;
-  esac
-done
-[ -n "$scans" ] || { echo "--scans is required" >&2; exit 2; }
-heatwave="$build/cli/heatwave"
-mkdir -p "$out"
-median() { tr ' ' '\n' | grep -v '^$' | sort -g | awk '{a[NR] = $1} END {print (NR % 2) ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2}'; }
+usage=2,12
+# shellcheck source=bench/alternate_common.sh
+source "$(dirname "$0")/alternate_common.sh"
 for scan in $scans; do
   name=$(basename "$scan")
   scan_rig=${rig:-$scan/rig.yaml}
