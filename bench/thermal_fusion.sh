@@ -81,7 +81,7 @@ synth_args() {
 }
 
 summary=$out/summary.tsv
-printf "scan\tconfig\tmethod\tfps\tthermal_ms\trmse\tp95\tbias\trmse_uniform\tp95_uniform\trmse_affine\tp95_affine\trmse_low_e\tbias_low_e\tcompared\n" > "$summary"
+printf "scan\tconfig\tmethod\tfps\tthermal_ms\trmse\tp95\tbias\trmse_uniform\tp95_uniform\trmse_affine\tp95_affine\trmse_low_e\tbias_low_e\tcompared\tworst_third\tmiddle\tbest_third\n" > "$summary"
 for scan in $scans; do
   if [[ ! -f $data/$scan/thermal.txt ]]; then
     echo "== rendering $scan (minutes)" >&2
@@ -127,7 +127,7 @@ fps = d["timings"]["frames_per_s"]
 frames = max(1, len(d["frames"]))
 t = d.get("thermal")
 if t is None:
-    print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 10)
+    print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 13)
     sys.exit()
 # Frames/s of the whole pipeline: the caller's time in depth processing, thermal fusion (the
 # stage beside it, ThermalFusionOptions::background, counts where the caller waits for it)
@@ -140,11 +140,16 @@ for m in t.get("truth_evaluation", []):
     print("\t".join([sys.argv[2], sys.argv[3], m["method"], f"{fps_all:.2f}", f"{ms:.0f}",
                      f("rmse_k"), f("p95_abs_k"), f("mean_k"), f("rmse_uniform_k"), f("p95_abs_uniform_k"),
                      f("rmse_affine_k"), f("p95_abs_affine_k"), f("rmse_low_emissivity_k"),
-                     f("mean_low_emissivity_k"), str(m["compared"])]))
+                     f("mean_low_emissivity_k"), str(m["compared"])] +
+                    # RMSE after gain/offset per third of the views' mean confidence (worst first)
+                    [("nan" if c["rmse_affine_k"] is None else f'{c["rmse_affine_k"]:.3f}')
+                     for c in m.get("by_view_quality", [])]))
 EOF
     done
   done
 done
 echo
 column -t -s $'\t' "$summary"
-echo "(K; fps: depth frames per second of processing, thermal fusion included; thermal_ms per thermal frame)"
+echo "(K; fps: depth frames per second of processing, thermal fusion included; thermal_ms per thermal frame;"
+echo " worst_third / middle / best_third: uniform subset after gain/offset, split at the terciles of the mean"
+echo " confidence of each region's views)"

@@ -3,6 +3,7 @@
 // heatwave reconstruct: a scan folder (or a TUM RGB-D sequence with --rig) into a tracked
 // trajectory, a coloured mesh and a report of what happened to every frame.
 
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -79,6 +80,9 @@ struct ThermalCommandResult {
   std::string emissivity;              // where emissivity came from
   // Synthetic scans: every method's surface-temperature error against truth/scene.ply.
   std::vector<std::pair<reconstruct::ThermalMethod, reconstruct::TemperatureErrorStats>> evaluation;
+  // The same per class of view quality (terciles of the plain mean's confidence, the mean
+  // C_R of a region's views: reconstruct::TemperatureErrorsByViewQuality), in evaluation's order.
+  std::vector<std::array<reconstruct::ViewQualityClass, 3>> evaluation_by_view_quality;
 };
 
 // What a run produced, for the summary and the tests.

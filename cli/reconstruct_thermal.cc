@@ -162,6 +162,15 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
                             const std::vector<Eigen::Vector3i>& faces, const reconstruct::TemperatureTruth& truth,
                             ThermalCommandResult& result) {
   std::optional<reconstruct::TemperatureComparison> comparison;
+  // View quality per vertex: the mean confidence of all its region's views (the plain mean's).
+  std::vector<double> quality;
+  {
+    const reconstruct::PointTemperatures mean = fusion.Sample(model_vertices_in_model, ThermalMethod::kMean);
+    quality.reserve(mean.confidence.size());
+    for (size_t i = 0; i < mean.confidence.size(); ++i) {
+      quality.push_back(mean.views[i] > 0 ? static_cast<double>(mean.confidence[i]) : std::nan(""));
+    }
+  }
   for (ThermalMethod method : reconstruct::kThermalMethods) {
     const reconstruct::PointTemperatures t = fusion.Sample(model_vertices_in_model, method);
     const std::vector<double> estimate(t.surface_c.begin(), t.surface_c.end());
@@ -169,7 +178,10 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
       comparison = reconstruct::CompareTemperatures(model_vertices_in_truth, faces, estimate, truth,
                                                     reconstruct::TemperatureErrorOptions{});
     }
-    result.evaluation.emplace_back(method, reconstruct::TemperatureErrors(*comparison, estimate));
+    const reconstruct::TemperatureErrorStats stats = reconstruct::TemperatureErrors(*comparison, estimate);
+    result.evaluation.emplace_back(method, stats);
+    result.evaluation_by_view_quality.push_back(
+        reconstruct::TemperatureErrorsByViewQuality(*comparison, stats, estimate, quality));
   }
 }
 
@@ -254,7 +266,20 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
   all.Add("settings", settings.str()).Add("summary", summary.str()).Add("timings", timings.str());
   if (!r.evaluation.empty()) {
     std::vector<std::string> methods;
-    for (const auto& [method, e] : r.evaluation) {
+    for (size_t k = 0; k < r.evaluation.size(); ++k) {
+      const auto& [method, e] = r.evaluation[k];
+      std::vector<std::string> classes;
+      if (k < r.evaluation_by_view_quality.size()) {
+        for (const reconstruct::ViewQualityClass& q : r.evaluation_by_view_quality[k]) {
+          JsonObject j;
+          j.Number("confidence_from", q.quality_from)
+              .Number("confidence_to", q.quality_to)
+              .Int("compared", q.compared)
+              .Number("rmse_k", q.rmse_k)
+              .Number("rmse_affine_k", q.rmse_affine_k);
+          classes.push_back(j.str());
+        }
+      }
       JsonObject m;
       m.String("method", reconstruct::ThermalMethodName(method))
           .Int("vertices", e.vertices)
@@ -274,7 +299,8 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
           .Number("p95_abs_affine_k", e.p95_abs_affine_k)
           .Int("compared_low_emissivity", e.compared_low_emissivity)
           .Number("rmse_low_emissivity_k", e.rmse_low_emissivity_k)
-          .Number("mean_low_emissivity_k", e.mean_low_emissivity_k);
+          .Number("mean_low_emissivity_k", e.mean_low_emissivity_k)
+          .Add("by_view_quality", JsonArray(classes, "      "));
       methods.push_back(m.str());
     }
     all.Add("truth_evaluation", JsonArray(methods, "    "));
@@ -354,6 +380,20 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
                                 reconstruct::ThermalMethodName(method).c_str(), e.rmse_k, e.p95_abs_k, e.mean_k,
                                 e.rmse_uniform_k, e.p95_abs_uniform_k, e.mean_uniform_k, e.rmse_affine_k,
                                 e.p95_abs_affine_k, e.rmse_low_emissivity_k, e.mean_low_emissivity_k);
+    }
+    if (!r.evaluation_by_view_quality.empty()) {
+      // The classes are the same vertices for every method (the plain mean's confidence).
+      const auto& c = r.evaluation_by_view_quality.front();
+      out += core::StringPrintf(
+          "           by view quality, uniform subset, gain/offset removed (mean confidence of the views: "
+          "%.2f-%.2f | %.2f-%.2f | %.2f-%.2f)\n",
+          c[0].quality_from, c[0].quality_to, c[1].quality_from, c[1].quality_to, c[2].quality_from, c[2].quality_to);
+      for (size_t k = 0; k < r.evaluation_by_view_quality.size() && k < r.evaluation.size(); ++k) {
+        const auto& q = r.evaluation_by_view_quality[k];
+        out += core::StringPrintf("           %-12s           worst third %6.3f | middle %6.3f | best third %6.3f\n",
+                                  reconstruct::ThermalMethodName(r.evaluation[k].first).c_str(), q[0].rmse_affine_k,
+                                  q[1].rmse_affine_k, q[2].rmse_affine_k);
+      }
     }
   }
   return out;

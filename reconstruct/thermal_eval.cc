@@ -311,4 +311,46 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
   return out;
 }
 
+std::array<ViewQualityClass, 3> TemperatureErrorsByViewQuality(const TemperatureComparison& comparison,
+                                                              const TemperatureErrorStats& stats,
+                                                              const std::vector<double>& estimate_c,
+                                                              const std::vector<double>& quality) {
+  assert(estimate_c.size() == comparison.truth_c.size() && quality.size() == comparison.truth_c.size());
+  std::array<ViewQualityClass, 3> classes;
+  std::vector<double> sorted;
+  for (size_t i = 0; i < quality.size(); ++i) {
+    if (comparison.uniform[i] && std::isfinite(quality[i])) sorted.push_back(quality[i]);
+  }
+  if (sorted.empty()) return classes;
+  std::sort(sorted.begin(), sorted.end());
+  // Class k holds the qualities of ranks [k·n/3, (k+1)·n/3): ties at a border go to the
+  // lower class (upper_bound), so that one quality never lands in two classes.
+  const size_t n = sorted.size();
+  // A vertex is in the first class whose upper bound (its last rank's quality) it does not
+  // exceed; the range reported is that of the vertices the class then holds.
+  const std::array<double, 2> upper = {sorted[std::max<size_t>(n / 3, 1) - 1], sorted[std::max<size_t>(2 * n / 3, 1) - 1]};
+  const bool affine = std::isfinite(stats.affine_gain) && std::isfinite(stats.affine_offset_k);
+  std::array<double, 3> sum{}, sum_affine{};
+  for (size_t i = 0; i < quality.size(); ++i) {
+    if (!comparison.uniform[i] || !std::isfinite(quality[i])) continue;
+    int k = 0;
+    while (k < 2 && quality[i] > upper[k]) ++k;
+    ViewQualityClass& c = classes[k];
+    c.quality_from = std::isfinite(c.quality_from) ? std::min(c.quality_from, quality[i]) : quality[i];
+    c.quality_to = std::isfinite(c.quality_to) ? std::max(c.quality_to, quality[i]) : quality[i];
+    if (!std::isfinite(estimate_c[i])) continue;
+    const double error = estimate_c[i] - comparison.truth_c[i];
+    const double error_affine = stats.affine_gain * estimate_c[i] + stats.affine_offset_k - comparison.truth_c[i];
+    ++classes[k].compared;
+    sum[k] += error * error;
+    sum_affine[k] += error_affine * error_affine;
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (classes[k].compared == 0) continue;
+    classes[k].rmse_k = std::sqrt(sum[k] / classes[k].compared);
+    if (affine) classes[k].rmse_affine_k = std::sqrt(sum_affine[k] / classes[k].compared);
+  }
+  return classes;
+}
+
 }  // namespace hw::reconstruct

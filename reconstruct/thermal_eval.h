@@ -12,6 +12,7 @@
 //   const TemperatureErrorStats latest = TemperatureErrors(c, latest_c);  // another method
 
 #include <cstdint>
+#include <array>
 #include <filesystem>
 #include <limits>
 #include <string>
@@ -137,5 +138,25 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
 // comparing several methods on one model). Asserts estimate_c has one value per vertex.
 TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
                                         const std::vector<double>& estimate_c);
+
+// The errors of an estimate in three classes of view quality, so that the rules can be
+// compared where the views were poor — grazing, blurred, far, or right after a shutter event
+// — which is where confidence weighting is meant to beat the plain mean (issue 9): the
+// uniform subset's vertices (comparison.uniform) with a finite `quality` split at its
+// terciles over them, lowest first. `quality` per vertex: e.g. the plain mean's confidence,
+// the mean C_R of all the views of the vertex's region (PointTemperatures::confidence of
+// ThermalMethod::kMean), the same for every estimate compared. Per class: the quality range
+// [from, to], the vertices compared (estimate finite as well), the RMSE (K) and the RMSE
+// after `stats`'s gain/offset map (the estimate's own over the whole uniform subset:
+// TemperatureErrors), NaN when none. Asserts one value per vertex in both vectors.
+struct ViewQualityClass {
+  double quality_from = TemperatureErrorStats::kNaN, quality_to = TemperatureErrorStats::kNaN;
+  int compared = 0;
+  double rmse_k = TemperatureErrorStats::kNaN, rmse_affine_k = TemperatureErrorStats::kNaN;
+};
+std::array<ViewQualityClass, 3> TemperatureErrorsByViewQuality(const TemperatureComparison& comparison,
+                                                              const TemperatureErrorStats& stats,
+                                                              const std::vector<double>& estimate_c,
+                                                              const std::vector<double>& quality);
 
 }  // namespace hw::reconstruct

@@ -126,6 +126,54 @@ TEST(TemperatureErrors, AffineFitTakesOutACameraGainAndOffset) {
   EXPECT_LT(s.p95_abs_affine_k, 0.12);
 }
 
+// Nine uniform vertices of qualities 0.1 … 0.9 in shuffled order, one outside the uniform
+// subset and one without a quality (neither counted), the estimate's error 1 K in the
+// lowest third, 2 K in the middle one, 3 K in the best, one vertex unobserved: classes
+// 0.1–0.3, 0.4–0.6, 0.7–0.9 (each three vertices, the unobserved one in its range but not
+// compared), RMSE exactly 1, 2, 3 K; after a gain/offset map the residuals it leaves. Tied
+// qualities at a border go to the lower class.
+TEST(TemperatureErrors, ByViewQualityTerciles) {
+  TemperatureComparison c;
+  const std::vector<double> q = {0.5, 0.1, 0.9, 0.3, 0.7, 0.2, 0.8, 0.4, 0.6, 0.05, NAN};
+  c.truth_c.assign(q.size(), 20.0);
+  c.uniform = {1, 1, 1, 1, 1, 1, 1, 1, 1, 0, 1};
+  std::vector<double> estimate;
+  for (double quality : q) estimate.push_back(20.0 + (quality <= 0.3 ? 1 : quality <= 0.6 ? 2 : 3));
+  estimate[2] = NAN;  // quality 0.9 unobserved
+  TemperatureErrorStats stats;  // no affine map: NaN after it
+  const std::array<ViewQualityClass, 3> classes = TemperatureErrorsByViewQuality(c, stats, estimate, q);
+  const double from[] = {0.1, 0.4, 0.7}, to[] = {0.3, 0.6, 0.9};
+  const int compared[] = {3, 3, 2};
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(classes[k].quality_from, from[k]) << k;
+    EXPECT_DOUBLE_EQ(classes[k].quality_to, to[k]) << k;
+    EXPECT_EQ(classes[k].compared, compared[k]) << k;
+    EXPECT_NEAR(classes[k].rmse_k, k + 1.0, 1e-12) << k;
+    EXPECT_TRUE(std::isnan(classes[k].rmse_affine_k)) << k;
+  }
+  // A gain/offset map of 1 and −2 K: residuals −1, 0, +1 K.
+  stats.affine_gain = 1;
+  stats.affine_offset_k = -2;
+  const std::array<ViewQualityClass, 3> mapped = TemperatureErrorsByViewQuality(c, stats, estimate, q);
+  EXPECT_NEAR(mapped[0].rmse_affine_k, 1, 1e-12);
+  EXPECT_NEAR(mapped[1].rmse_affine_k, 0, 1e-12);
+  EXPECT_NEAR(mapped[2].rmse_affine_k, 1, 1e-12);
+  // Ties: six vertices of quality 0.5 and three of 0.9 — the first two classes' borders
+  // both fall on 0.5, so all six are in the lowest class and the middle one is empty.
+  const std::vector<double> tied = {0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.9, 0.9, 0.9, 0.05, NAN};
+  const std::array<ViewQualityClass, 3> t = TemperatureErrorsByViewQuality(c, stats, estimate, tied);
+  EXPECT_EQ(t[0].compared, 5);  // the unobserved vertex (index 2) is in it, not compared
+  EXPECT_DOUBLE_EQ(t[0].quality_to, 0.5);
+  EXPECT_EQ(t[1].compared, 0);
+  EXPECT_TRUE(std::isnan(t[1].rmse_k) && std::isnan(t[1].quality_from));
+  EXPECT_EQ(t[2].compared, 3);
+  EXPECT_DOUBLE_EQ(t[2].quality_from, 0.9);
+  // No quality anywhere: three empty classes.
+  const std::array<ViewQualityClass, 3> none =
+      TemperatureErrorsByViewQuality(c, stats, estimate, std::vector<double>(q.size(), NAN));
+  for (const ViewQualityClass& e : none) EXPECT_EQ(e.compared, 0);
+}
+
 TEST(CompareTemperatures, LinearFieldOffsetPlaneExactStats) {
   // Truth: 5 cm triangles (linear interpolation reproduces a linear field exactly). Model:
   // 21 × 21 vertices 1 mm above it; estimate = truth − 2 K on every fifth vertex, + 0.5 K

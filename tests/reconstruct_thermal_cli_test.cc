@@ -112,7 +112,7 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
   for (const char* key : {"\"thermal\"", "\"recency_bias\"", "\"fraction_fused\"", "\"truth_evaluation\"",
                           "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\"",
                           "\"occlusion_margin_m\": 0.1", "\"rays_occluded\"", "\"live_depth_frames\"", "\"occluded\"",
-                          "\"live_depth\": true"}) {
+                          "\"live_depth\": true", "\"by_view_quality\"", "\"confidence_from\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
 }
