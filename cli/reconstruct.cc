@@ -468,6 +468,12 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--reuse-max-motion-deg", r.reuse_max_motion_deg,
                  "the same limit on the rotation, degrees")
       ->capture_default_str();
+  app.add_option("--integrate-max-motion", r.integrate_max_motion_m,
+                 "integrate a frame tracked between raycasts when it lies this far from the last integrated "
+                 "frame, m (with --integrate-between-raycasts false)")
+      ->capture_default_str();
+  app.add_option("--integrate-max-motion-deg", r.integrate_max_motion_deg, "the same limit on the rotation, degrees")
+      ->capture_default_str();
   app.add_option("--reuse-lead", r.reuse_lead,
                  "cast the model view from where the camera will be this fraction of the view's reuse window "
                  "later (constant velocity), so that the frames reusing it lie on both sides of it, [0, 1]")

@@ -58,6 +58,8 @@ std::string SettingsJson(const ReconstructCommandOptions& o) {
       .Number("reuse_max_correction_deg", r.reuse_max_correction_deg)
       .Number("reuse_max_motion_m", r.reuse_max_motion_m)
       .Number("reuse_max_motion_deg", r.reuse_max_motion_deg)
+      .Number("integrate_max_motion_m", r.integrate_max_motion_m)
+      .Number("integrate_max_motion_deg", r.integrate_max_motion_deg)
       .Number("reuse_lead", r.reuse_lead);
   JsonObject dynamic, keyframes, prealign;
   prealign.Int("iterations", r.prealign.iterations)

@@ -6,10 +6,13 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "fixtures/cached_test_data.h"
 #include "fixtures/synth_scan.h"
+#include "core/scan.h"
 #include "reconstruct/reconstruction.h"
+#include "reconstruct/trajectory_eval.h"
 
 namespace hw::reconstruct::test {
 
@@ -45,6 +48,31 @@ inline ReconstructionOptions PipelineTestOptions() {
   o.tsdf.truncation_m = 0.04;
   o.mesh.min_component_triangles = 20;
   return o;
+}
+
+// What a whole-scan test run produced: the trajectory's evaluation against groundtruth.txt,
+// the frame records, the fused poses (one per fused frame, in order) and the mesh.
+struct Outcome {
+  TrajectoryEval eval;
+  std::vector<FrameRecord> frames;
+  std::vector<core::TimedPose> poses;
+  TriangleMesh mesh;
+};
+
+// Reconstructs the scan (ReconstructScan, from its groundtruth pose unless told otherwise)
+// and evaluates it. The scan must have groundtruth.txt.
+inline Outcome ReconstructAndEvaluate(const core::Scan& scan, const ReconstructionOptions& options,
+                                      bool start_at_groundtruth = true) {
+  Reconstruction reconstruction(scan.rig(), options);
+  ScanReconstructionOptions scan_options;
+  scan_options.start_at_groundtruth = start_at_groundtruth;
+  ReconstructScan(scan, reconstruction, scan_options);
+  Outcome run;
+  run.eval = EvaluateTrajectory(reconstruction.trajectory(), *scan.groundtruth(), {});
+  run.frames = reconstruction.frames();
+  run.poses = reconstruction.trajectory().poses();
+  run.mesh = reconstruction.ExtractMesh();
+  return run;
 }
 
 }  // namespace hw::reconstruct::test

@@ -119,6 +119,12 @@ std::string ReconstructionOptions::Check() const {
   if (!(reuse_max_motion_deg > 0) || !std::isfinite(reuse_max_motion_deg)) {
     return Fail("reuse_max_motion_deg", reuse_max_motion_deg, "> 0 and finite");
   }
+  if (!(integrate_max_motion_m > 0) || !std::isfinite(integrate_max_motion_m)) {
+    return Fail("integrate_max_motion_m", integrate_max_motion_m, "> 0 and finite");
+  }
+  if (!(integrate_max_motion_deg > 0) || !std::isfinite(integrate_max_motion_deg)) {
+    return Fail("integrate_max_motion_deg", integrate_max_motion_deg, "> 0 and finite");
+  }
   if (!(reuse_lead >= 0 && reuse_lead <= 1)) return Fail("reuse_lead", reuse_lead, "in [0, 1]");
   const ReconstructionOptions e = Effective(*this);
   if (std::string m = e.tsdf.Check(); !m.empty()) return "tsdf." + m;
@@ -375,7 +381,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
   // nearly the same surfaces), unless it lies as far from the last integrated frame as a
   // view may be reused: with reuse_lead a view outlasts that distance, and the volume still
   // gains a frame as often as without it (its surface averages as many readings).
-  const bool moved_on = last_integrated_ && Beyond(core::ComparePoses(*last_integrated_, world_from_depth));
+  const bool moved_on = last_integrated_ && MovedOn(core::ComparePoses(*last_integrated_, world_from_depth));
   if (options_.integrate_between_raycasts || raycast || frame.world_from_depth || moved_on) {
     last_integrated_ = world_from_depth;
     Integrate(pyramid, frame, rgb_pinhole, world_from_depth, record);
@@ -669,6 +675,11 @@ bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {
 bool Reconstruction::Beyond(const core::PoseError& moved) const {
   return moved.translation_m > options_.reuse_max_motion_m ||
          moved.rotation_rad * kRadToDeg > options_.reuse_max_motion_deg;
+}
+
+bool Reconstruction::MovedOn(const core::PoseError& moved) const {
+  return moved.translation_m > options_.integrate_max_motion_m ||
+         moved.rotation_rad * kRadToDeg > options_.integrate_max_motion_deg;
 }
 
 void Reconstruction::Integrate(const DepthPyramid& pyramid, const FrameInput& frame,
