@@ -385,12 +385,14 @@ TEST(TsdfIntegrate, BlocksKeepALowerBoundOfTheirReadingsBands) {
   volume.Integrate(test::RenderPlane(camera, far_pose, Eigen::Vector3d::UnitZ(), far_m), camera, far_pose);
   const float band_far = band.At(far_m);
   ASSERT_GT(band_far, 2.5f * static_cast<float>(options.truncation_m));  // the case that matters
-  // The bound's slack: readings from z_near − band(z_near) of a block's nearest voxel, which
-  // lies up to half the centres' diagonal (1.52 cm) before its centre, itself up to the band
-  // and half a block's depth (2 cm) before the plane.
+  // The bound's slack: readings from z_near − band(z_near) − the bilinear spread (half a
+  // truncation and 4 / f per metre of depth) of a block's nearest voxel, which lies up to half
+  // the centres' diagonal (1.52 cm) before its centre, itself up to the band and half a
+  // block's depth (2 cm) before the plane.
   const float block_m = static_cast<float>(options.voxel_size_m) * kBlockSide;
   const float lowest_z = far_m - band_far - 0.5f * block_m - 0.5f * std::sqrt(3.0f) * block_m;
-  const float slack_band = band.At(lowest_z - band.At(lowest_z));
+  const float spread_m = 0.5f * static_cast<float>(options.truncation_m) + lowest_z * 4.0f / camera.fx;
+  const float slack_band = band.At(lowest_z - band.At(lowest_z) - spread_m);
   int blocks = 0;
   volume.ForEachBlock([&](const VoxelBlock& block) {
     ++blocks;
