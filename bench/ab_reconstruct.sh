@@ -1,19 +1,22 @@
 #!/usr/bin/env bash
 # Two settings of `heatwave reconstruct` side by side in one run: every scan is reconstructed
 # alternately with the options A and B, ROUNDS times each, from the first frame's groundtruth
-# pose. Prints per run frames/s, the frames integrated, the model casts, the ATE and the
-# surface error (world frame and registered shape, medians); then the medians of frames/s
-# and their ratio A / B.
+# pose. Prints per run frames/s, the frames integrated, the model casts and their mean time,
+# the thermal raycast's mean time per fused thermal frame (scans with thermal), the ATE and
+# the surface error (world frame and registered shape, medians); then the medians of
+# frames/s and of the cast time, and their ratios A / B.
 #   bench/ab_reconstruct.sh --a "ARGS" --b "ARGS" [--build DIR] [--out DIR] [--rounds N]
 #                           --scans "SCAN ..." [--rig RIG] [--args "ARGS FOR BOTH"]
 # E.g. the integration cadence (ReconstructionOptions::integrate_max_motion_m / _deg) on the
 # 10 s full-size renders with their true depth field:
 #   bench/ab_reconstruct.sh --scans "EQ10 BD10" --rig ORACLE --args --no-thermal \
 #     --a "" --b "--integrate-max-motion 0.06 --integrate-max-motion-deg 3.75"
+# or rays stepped by the blocks' bands against the fixed truncation (RaycastOptions::band_steps):
+#   ... --a "" --b "--raycast-band-steps false"
 set -euo pipefail
 out=build/bench-results/ab-reconstruct
 extra=""
-usage=2,12
+usage=2,16
 a_args=""
 b_args=""
 rest=()
@@ -27,7 +30,7 @@ done
 set -- "${rest[@]}"
 # shellcheck source=bench/alternate_common.sh
 source "$(dirname "$0")/alternate_common.sh"
-# reconstruct.json → "fps integrated casts ate_mm surface_mm shape_mm"
+# reconstruct.json → "fps integrated casts cast_ms thermal_cast_ms ate_mm surface_mm shape_mm"
 figures() {
   python3 - "$1" <<'PY'
 import json, sys
@@ -36,15 +39,17 @@ frames = j["frames"]
 g = j.get("groundtruth_evaluation", {})
 s = g.get("surface_to_truth", {})
 mm = lambda v: "nan" if v is None else f"{1e3 * v:.2f}"
-print(f'{j["timings"]["frames_per_s"]:.2f} {sum(f["integrated"] for f in frames)} '
-      f'{sum(f.get("raycast_ms", 0) > 0 for f in frames)} {mm(g.get("ate_m", {}).get("rmse"))} '
+casts = [f["raycast_ms"] for f in frames if f.get("raycast_ms", 0) > 0]
+thermal = j.get("thermal", {}).get("timings", {}).get("mean_raycast_ms", float("nan"))
+print(f'{j["timings"]["frames_per_s"]:.2f} {sum(f["integrated"] for f in frames)} {len(casts)} '
+      f'{sum(casts) / max(1, len(casts)):.1f} {thermal:.1f} {mm(g.get("ate_m", {}).get("rmse"))} '
       f'{mm(s.get("median_m"))} {mm(s.get("registered", {}).get("median_m"))}')
 PY
 }
 for scan in $scans; do
   name=$(basename "$scan")
   scan_rig=${rig:-$scan/rig.yaml}
-  declare -A fps=([a]="" [b]="")
+  declare -A fps=([a]="" [b]="") cast=([a]="" [b]="")
   for round in $(seq 1 "$rounds"); do
     for mode in a b; do
       args=$a_args
@@ -53,13 +58,16 @@ for scan in $scans; do
       # shellcheck disable=SC2086
       "$heatwave" reconstruct "$scan" --rig "$scan_rig" --out "$run" --overwrite --start-at-groundtruth $extra $args \
         > /dev/null 2>&1
-      read -r f n c ate surface shape <<< "$(figures "$run/reconstruct.json")"
-      printf "%-10s round %d %s %6s frames/s  %3s integrated  %3s casts  ATE %s mm  surface %s mm  shape %s mm\n" \
-        "$name" "$round" "$mode" "$f" "$n" "$c" "$ate" "$surface" "$shape"
+      read -r f n c cms tms ate surface shape <<< "$(figures "$run/reconstruct.json")"
+      printf "%-10s round %d %s %6s frames/s  %3s integrated  %3s casts %6s ms  thermal cast %6s ms  ATE %s mm  surface %s mm  shape %s mm\n" \
+        "$name" "$round" "$mode" "$f" "$n" "$c" "$cms" "$tms" "$ate" "$surface" "$shape"
       fps[$mode]="${fps[$mode]} $f"
+      cast[$mode]="${cast[$mode]} $cms"
     done
   done
   fa=$(echo "${fps[a]}" | median); fb=$(echo "${fps[b]}" | median)
-  printf "%-10s median frames/s a %s, b %s (ratio a/b %.3f)\n" "$name" "$fa" "$fb" \
-    "$(awk -v a="$fa" -v b="$fb" 'BEGIN {print a / b}')"
+  ca=$(echo "${cast[a]}" | median); cb=$(echo "${cast[b]}" | median)
+  printf "%-10s median frames/s a %s, b %s (ratio a/b %.3f); model cast a %s, b %s ms (ratio a/b %.3f)\n" \
+    "$name" "$fa" "$fb" "$(awk -v a="$fa" -v b="$fb" 'BEGIN {print a / b}')" \
+    "$ca" "$cb" "$(awk -v a="$ca" -v b="$cb" 'BEGIN {print a / b}')"
 done

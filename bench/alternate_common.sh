@@ -1,5 +1,5 @@
 # Sourced by the benches that reconstruct scans alternately in two modes (prepare_ahead.sh,
-# band_steps.sh): their shared options, parsed from "$@", and the median of a list.
+# ab_reconstruct.sh): their shared options, parsed from "$@", and the median of a list.
 # The sourcing script sets `out` and `extra` (its defaults) and `usage` (the sed range of its
 # header comment) first; afterwards build, out, rounds, scans, rig, extra and heatwave are set.
 #   [--build DIR] [--out DIR] [--rounds N] --scans "SCAN ..." [--rig RIG] [--args "ARGS"]

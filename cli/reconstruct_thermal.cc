@@ -162,18 +162,25 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
                             const std::vector<Eigen::Vector3i>& faces, const reconstruct::TemperatureTruth& truth,
                             ThermalCommandResult& result) {
   std::optional<reconstruct::TemperatureComparison> comparison;
-  // View quality per vertex: the mean confidence of all its region's views (the plain mean's).
-  std::vector<double> quality;
+  // The plain mean first: its confidence per vertex, the mean of all its region's views', is
+  // the view quality every method is also scored by; its estimate is kept for its turn.
+  std::vector<double> quality, mean_estimate;
   {
     const reconstruct::PointTemperatures mean = fusion.Sample(model_vertices_in_model, ThermalMethod::kMean);
     quality.reserve(mean.confidence.size());
     for (size_t i = 0; i < mean.confidence.size(); ++i) {
       quality.push_back(mean.views[i] > 0 ? static_cast<double>(mean.confidence[i]) : std::nan(""));
     }
+    mean_estimate.assign(mean.surface_c.begin(), mean.surface_c.end());
   }
   for (ThermalMethod method : reconstruct::kThermalMethods) {
-    const reconstruct::PointTemperatures t = fusion.Sample(model_vertices_in_model, method);
-    const std::vector<double> estimate(t.surface_c.begin(), t.surface_c.end());
+    std::vector<double> estimate;
+    if (method == ThermalMethod::kMean) {
+      estimate = std::move(mean_estimate);
+    } else {
+      const reconstruct::PointTemperatures t = fusion.Sample(model_vertices_in_model, method);
+      estimate.assign(t.surface_c.begin(), t.surface_c.end());
+    }
     if (!comparison) {
       comparison = reconstruct::CompareTemperatures(model_vertices_in_truth, faces, estimate, truth,
                                                     reconstruct::TemperatureErrorOptions{});

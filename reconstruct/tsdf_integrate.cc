@@ -754,19 +754,16 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
         VoxelBlock& block = *visible[b];
         const Eigen::Vector3f corner_in_world = block.key.cast<float>() * block_m;
         const Eigen::Vector3f corner_in_camera = cw_rotation * corner_in_world + cw_translation;
-        if ((corner_in_camera + centre_offset).z() <= coarse_beyond_m) block.seen_near = true;
-        {
-          // A reading updates a voxel at depth z only from d >= z − band(d) >= z − band(z)
-          // (hidden beyond its band), its band taken at the nearest pixel's depth, which the
-          // bilinear d may exceed by the spread it accepts (UpdateRowScalar): the band is at
-          // least band(max(z_near − band(z_near) − that spread, the noise model's minimum)),
-          // z_near the block's nearest voxel centre.
-          const float z_near = std::max((corner_in_camera + centre_offset).z() - near_offset_m, 0.0f);
-          const float spread_m = f.half_truncation_m + z_near * f.edge_slope_per_m;
-          const float d_low = std::max(z_near - noise_band.At(z_near) - spread_m, noise_band.reference_m);
-          const float reading_band_m = noise_band.At(d_low);
-          block.min_band_m = block.min_band_m > 0 ? std::min(block.min_band_m, reading_band_m) : reading_band_m;
-        }
+        const float centre_z = (corner_in_camera + centre_offset).z();
+        if (centre_z <= coarse_beyond_m) block.seen_near = true;
+        // A reading updates a voxel at depth z only from d >= z − band(d) >= z − band(z)
+        // (hidden beyond its band), its band taken at the nearest pixel's depth, which the
+        // bilinear d may exceed by the spread it accepts (UpdateRowScalar): the band is at
+        // least band(max(z_near − band(z_near) − that spread, the noise model's minimum)),
+        // z_near the block's nearest voxel centre.
+        const float z_near = std::max(centre_z - near_offset_m, 0.0f);
+        const float spread_m = f.half_truncation_m + z_near * f.edge_slope_per_m;
+        block.LowerBand(noise_band.At(std::max(z_near - noise_band.At(z_near) - spread_m, noise_band.reference_m)));
         coarse_count += !block.seen_near;
         count += update_block(f, corner_in_camera, block.voxels.data(), !block.seen_near);
       }

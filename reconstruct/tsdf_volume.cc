@@ -126,9 +126,7 @@ int64_t TsdfVolume::CarveFreeSpace(const std::vector<Eigen::Vector3f>& points_in
       constexpr int m = kBlockSide - 1;
       Voxel& v = block->voxels[(ix & m) + kBlockSide * ((iy & m) + kBlockSide * (iz & m))];
       if (!v.observed()) continue;
-      // Carving fuses a "free space" reading of this range's band.
-      const float carve_band_m = band.At(length);
-      block->min_band_m = block->min_band_m > 0 ? std::min(block->min_band_m, carve_band_m) : carve_band_m;
+      block->LowerBand(band.At(length));  // carving fuses a "free space" reading of this range's band
       const float w = v.weight();
       v.set_sdf((v.sdf() * w + 1.0f) / (w + 1.0f));
       v.set_weight(std::min(w + 1.0f, max_weight));

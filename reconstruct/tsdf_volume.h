@@ -163,6 +163,8 @@ struct alignas(64) VoxelBlock {
   // the distance the readings put between it and their surface, so the ray march steps by
   // it (truncation_m when 0).
   float min_band_m = 0;
+  // Records that a reading of band band_m (m, > 0) was fused into the block.
+  void LowerBand(float band_m) { min_band_m = min_band_m > 0 ? std::min(min_band_m, band_m) : band_m; }
 };
 
 // What one Integrate() call did.
