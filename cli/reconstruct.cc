@@ -588,6 +588,23 @@ int RunReconstruct(int argc, char** argv) {
                  "over), both, off")
       ->check(CLI::IsMember({"off", "frame", "pixel", "both"}))
       ->capture_default_str();
+  app.add_option("--thermal-reflections", t.reflections.trace,
+                 "follow each shiny surface's mirror ray on the model (the operator's body behind the camera, "
+                 "a surface with a temperature, or the room) instead of taking the whole reflection as the "
+                 "uniform reflected temperature")
+      ->capture_default_str();
+  app.add_option("--operator-c", t.reflections.operator_apparent_c,
+                 "apparent temperature of the person holding the rig, as a shiny surface reflects them, degC")
+      ->capture_default_str();
+  app.add_option("--operator-distance", t.reflections.operator_distance_m,
+                 "how far behind the thermal camera the operator's body is, m (an upright ellipse, "
+                 "--operator-size wide and tall)")
+      ->capture_default_str();
+  std::vector<double> operator_size = {2 * t.reflections.operator_half_width_m, 2 * t.reflections.operator_half_height_m};
+  app.add_option("--operator-size", operator_size, "width and height of the operator's body, m (0,0: no body)")
+      ->expected(2)
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--emissivity", o.emissivity_path,
                  "emissivity file: regions of other emissivity / reflected temperature (README)");
   app.add_flag("--emissivity-from-truth", o.emissivity_from_truth,
@@ -596,6 +613,11 @@ int RunReconstruct(int argc, char** argv) {
   o.thermal = !no_thermal;
   o.regularise_stamps = !keep_stamps;
   o.scan.prepare_ahead = !no_prepare_ahead;
+  t.reflections.operator_body = operator_size[0] > 0 || operator_size[1] > 0;
+  if (t.reflections.operator_body) {
+    t.reflections.operator_half_width_m = operator_size[0] / 2;
+    t.reflections.operator_half_height_m = operator_size[1] / 2;
+  }
   t.confidence.motion_power = powers[0];
   t.confidence.distortion_power = powers[1];
   t.confidence.angle_power = powers[2];

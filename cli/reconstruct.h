@@ -65,11 +65,14 @@ struct ThermalCommandResult {
   int64_t rays_occluded = 0;  // hits behind something the live depth saw nearer
   int occluded_frames = 0;    // frames with such rays
   int live_depth_frames = 0;  // frames given a depth frame for the occlusion test
+  // Mirror rays traced, and fused rays whose mirror met the operator or a surface with a
+  // temperature (ThermalFusionOptions::reflections).
+  int64_t mirror_traced = 0, mirror_operator = 0, mirror_surface = 0;
   size_t regions = 0, observations = 0, memory_bytes = 0;
   size_t observations_dropped = 0;  // by ThermalFusionOptions::max_views_per_region
   int64_t offline_rejected = 0;
   double seconds = 0, load_seconds = 0, finish_seconds = 0;
-  double raycast_ms = 0, fuse_ms = 0;  // mean per fused frame
+  double raycast_ms = 0, reflect_ms = 0, fuse_ms = 0;  // mean per fused frame
   // Scene-based offset correction: on at all, fused frames with their own offset estimate,
   // range of the offsets removed (K), RMS of the pixel offsets at the end (K).
   bool scene_correction = false;

@@ -115,10 +115,14 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
     r.hits += f.hits;
     r.rays_fused += f.fused;
     r.rays_occluded += f.occluded;
+    r.mirror_traced += f.mirror_traced;
+    r.mirror_operator += f.mirror_operator;
+    r.mirror_surface += f.mirror_surface;
     r.occluded_frames += f.occluded > 0;
     r.live_depth_frames += f.live_depth;
     if (f.status == ThermalFrameStatus::kFused) {
       r.raycast_ms += f.raycast_ms;
+      r.reflect_ms += f.reflect_ms;
       r.fuse_ms += f.fuse_ms;
       r.offset_estimated += f.offset_estimated;
       r.offset_min_k = std::min(r.offset_min_k, f.offset_correction_k);
@@ -131,6 +135,7 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
   r.scene_correction = fusion.options().scene_correction.frame_offset || fusion.options().scene_correction.pixel_offset;
   if (r.fused > 0) {
     r.raycast_ms /= r.fused;
+    r.reflect_ms /= r.fused;
     r.fuse_ms /= r.fused;
   }
   r.regions = fusion.NumRegions();
@@ -222,6 +227,17 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Int("min_reference_rays", sc.min_reference_rays)
       .Number("pixel_rate", sc.pixel_rate)
       .Number("max_pixel_offset_k", sc.max_pixel_offset_k);
+  const reconstruct::ThermalReflectionOptions& ro = o.reflections;
+  JsonObject reflections;
+  reflections.Bool("trace", ro.trace)
+      .Number("min_specular_weight", ro.min_specular_weight)
+      .Number("max_distance_m", ro.max_distance_m)
+      .Bool("operator_body", ro.operator_body)
+      .Number("operator_apparent_c", ro.operator_apparent_c)
+      .Number("operator_distance_m", ro.operator_distance_m)
+      .Number("operator_offset_down_m", ro.operator_offset_down_m)
+      .Number("operator_half_width_m", ro.operator_half_width_m)
+      .Number("operator_half_height_m", ro.operator_half_height_m);
   settings.String("method", reconstruct::ThermalMethodName(o.method))
       .String("emissivity", r.emissivity)
       .Number("recency_bias", o.recency_bias)
@@ -237,6 +253,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("frame_interval_s", o.frame_interval_s)
       .Bool("background", o.background)
       .Add("scene_correction", scene.str())
+      .Add("reflections", reflections.str())
       .Add("confidence", confidence.str())
       .Add("offline", offline.str());
   summary.Int("frames", r.frames)
@@ -252,6 +269,9 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Int("rays_fused", r.rays_fused)
       .Int("rays_occluded", r.rays_occluded)
       .Int("occluded_frames", r.occluded_frames)
+      .Int("mirror_traced", r.mirror_traced)
+      .Int("mirror_operator", r.mirror_operator)
+      .Int("mirror_surface", r.mirror_surface)
       .Int("live_depth_frames", r.live_depth_frames)
       .Number("fraction_fused", r.rays > 0 ? static_cast<double>(r.rays_fused) / r.rays : 0)
       .Int("regions", static_cast<int64_t>(r.regions))
@@ -268,6 +288,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
       .Number("load_s", r.load_seconds)
       .Number("offline_s", r.finish_seconds)
       .Number("mean_raycast_ms", r.raycast_ms)
+      .Number("mean_reflect_ms", r.reflect_ms)
       .Number("mean_fuse_ms", r.fuse_ms);
   JsonObject all;
   all.Add("settings", settings.str()).Add("summary", summary.str()).Add("timings", timings.str());
@@ -332,6 +353,9 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Int("occluded", f.occluded)
         .Bool("live_depth", f.live_depth)
         .Int("no_surface_temperature", f.no_surface_temperature)
+        .Int("mirror_traced", f.mirror_traced)
+        .Int("mirror_operator", f.mirror_operator)
+        .Int("mirror_surface", f.mirror_surface)
         .Number("mean_confidence", f.mean_confidence)
         .Int("regions_updated", f.regions_updated)
         .Int("pair_rays", f.pair_rays)
@@ -341,6 +365,7 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
         .Number("offset_correction_k", f.offset_correction_k)
         .Number("pixel_offset_rms_k", f.pixel_offset_rms_k)
         .Number("raycast_ms", f.raycast_ms)
+        .Number("reflect_ms", f.reflect_ms)
         .Number("fuse_ms", f.fuse_ms);
     frames.push_back(j.str());
   }
@@ -351,9 +376,10 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
 std::string FormatThermalSummary(const ThermalCommandResult& r) {
   std::string out = core::StringPrintf(
       "Thermal    %d frames: %d fused, %d frozen (shutter), %d without pose, %d after the last depth pose, "
-      "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, fuse %.1f%s)\n",
+      "%d missing; %.0f %% of rays fused; %.1f ms/frame (raycast %.1f, reflections %.1f, fuse %.1f%s)\n",
       r.frames, r.fused, r.frozen, r.no_pose, r.after_end, r.missing,
-      r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.fuse_ms, r.raycast_ms, r.fuse_ms,
+      r.rays > 0 ? 100.0 * r.rays_fused / r.rays : 0.0, r.raycast_ms + r.reflect_ms + r.fuse_ms, r.raycast_ms,
+      r.reflect_ms, r.fuse_ms,
       r.background ? " beside the depth pipeline" : "");
   if (r.skipped > 0) {
     out += core::StringPrintf("           %d skipped: of the frames within %g s only the most confident (least "
@@ -371,6 +397,13 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
         "           %lld rays of %d frames not fused: behind something the depth camera saw nearer at the time "
         "(a person walking by; --thermal-occlusion-margin)\n",
         static_cast<long long>(r.rays_occluded), r.occluded_frames);
+  }
+  if (r.mirror_traced > 0) {
+    out += core::StringPrintf(
+        "           reflections: %lld mirror rays traced; of the fused, %lld met the operator, %lld a surface with a "
+        "temperature, the rest the room (--thermal-reflections)\n",
+        static_cast<long long>(r.mirror_traced), static_cast<long long>(r.mirror_operator),
+        static_cast<long long>(r.mirror_surface));
   }
   if (r.scene_correction) {
     out += core::StringPrintf(

@@ -47,6 +47,16 @@ void CheckRanges(const Fields& fields, const core::ThermalSettings& rig_thermal,
   if (const std::string problem = settings.Check(); !problem.empty()) fields.FailCheck(problem);
 }
 
+// The `specular` key: the mirror share of the reflectance, [0, 1].
+double ParseSpecular(const YamlReader& reader, const Fields& fields) {
+  const YAML::Node& node = fields.Required("specular");
+  const double value = reader.Number(node, fields.Path("specular"));
+  if (!(value >= 0 && value <= 1)) {
+    reader.Fail(fields.Path("specular"), "must be in [0, 1], got " + core::MessageNumber(value), node);
+  }
+  return value;
+}
+
 // Law metal needs an ε_n that a metal's optical constants can give (core/radiometry.h).
 void CheckMetal(const YamlReader& reader, const Fields& fields, const SurfaceEmissivity& surface) {
   if (surface.law != core::EmissivityLaw::kMetal ||
@@ -261,7 +271,7 @@ EmissivityMap EmissivityMap::Parse(const std::string& yaml_text, const fs::path&
 
   if (top.Has("default")) {
     const Fields fields =
-        reader.Mapping(top.Required("default"), "default", {"emissivity", "law", "reflected_c"});
+        reader.Mapping(top.Required("default"), "default", {"emissivity", "law", "reflected_c", "specular"});
     SurfaceEmissivity& d = map.default_;
     if (fields.Has("emissivity")) {
       d.emissivity = reader.Number(fields.Required("emissivity"), fields.Path("emissivity"));
@@ -270,6 +280,7 @@ EmissivityMap EmissivityMap::Parse(const std::string& yaml_text, const fs::path&
     if (fields.Has("reflected_c")) {
       d.reflected_c = reader.Number(fields.Required("reflected_c"), fields.Path("reflected_c"));
     }
+    if (fields.Has("specular")) d.specular_fraction = ParseSpecular(reader, fields);
     CheckRanges(fields, rig_thermal, d);
     CheckMetal(reader, fields, d);
   }
@@ -290,7 +301,7 @@ EmissivityMap EmissivityMap::Parse(const std::string& yaml_text, const fs::path&
   for (const YAML::Node& node : list) {
     const std::string key = Indexed("regions", i++);
     const Fields fields = reader.Mapping(
-        node, key, {"name", "emissivity", "law", "reflected_c", "box", "sphere"});
+        node, key, {"name", "emissivity", "law", "reflected_c", "specular", "box", "sphere"});
     EmissivityRegion region;
     region.line = node.Mark().line + 1;
     const YAML::Node& name = fields.Required("name");
@@ -311,6 +322,7 @@ EmissivityMap EmissivityMap::Parse(const std::string& yaml_text, const fs::path&
     s.reflected_c = fields.Has("reflected_c") ? reader.Number(fields.Required("reflected_c"),
                                                               fields.Path("reflected_c"))
                                               : map.default_.reflected_c;
+    if (fields.Has("specular")) s.specular_fraction = ParseSpecular(reader, fields);
     CheckRanges(fields, rig_thermal, s);
     CheckMetal(reader, fields, s);
     if (fields.Has("box") == fields.Has("sphere")) {

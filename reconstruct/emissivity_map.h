@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -21,13 +22,15 @@
 //     - name: motor-boss
 //       emissivity: 0.30
 //       law: metal                  # optional, dielectric | metal, default dielectric
+//       specular: 0.9               # optional, mirror share of the reflectance, [0, 1]
 //       reflected_c: 25.0           # optional, default: the default block's
 //       box: { centre_m: [0.41, -0.12, 1.85], size_m: [0.2, 0.1, 0.1], q_xyzw: [0, 0, 0, 1] }
 //     - name: pipe-tape
 //       emissivity: 0.97
 //       sphere: { centre_m: [0.1, 0.2, 1.5], radius_m: 0.05 }
 //
-// Keys of `default` left out come from rig.yaml's thermal block (its law: dielectric).
+// Keys of `default` left out come from rig.yaml's thermal block (its law: dielectric); a
+// block without `specular` (default or region) takes its own law's.
 // Regions must not overlap, so that no point's emissivity depends on the order of the list.
 
 namespace hw::reconstruct {
@@ -37,6 +40,10 @@ struct SurfaceEmissivity {
   double emissivity = 0.95;  // normal emissivity, [ThermalSettings::kMinEmissivity, 1]
   core::EmissivityLaw law = core::EmissivityLaw::kDielectric;
   double reflected_c = 20;   // reflected apparent temperature, °C
+  // The share of the reflectance (1 − ε) that is mirror-like, [0, 1]; the rest is diffuse,
+  // the uniform surrounding at reflected_c (thermal_reflections.h). NaN: the law's default
+  // (DefaultSpecularFraction: metal 0.9, dielectric 0.2).
+  double specular_fraction = std::numeric_limits<double>::quiet_NaN();
   int region = -1;           // index of the region, -1 = the default
 };
 
@@ -82,7 +89,7 @@ class EmissivityMap {
   // Reads the file; defaults missing from it come from rig_thermal. Throws
   // core::InputError naming the file, the key (e.g. "regions[2].emissivity") and the line:
   // unknown or missing keys, a version other than 1, emissivity or reflected_c outside
-  // ThermalSettings' ranges, size_m/radius_m <= 0, a quaternion whose norm is off 1 by more
+  // ThermalSettings' ranges, specular outside [0, 1], size_m/radius_m <= 0, a quaternion whose norm is off 1 by more
   // than 1e-6 (smaller errors are normalised), an unknown law, law metal with emissivity
   // above core::MaxMetalNormalEmissivity() (no metal has optical constants for it: an
   // oxidised or painted metal emits like a dielectric), a region with neither or both of

@@ -106,6 +106,20 @@ TEST(EmissivityMap, ReadsTheFileAndLooksUpEachShape) {
   EXPECT_EQ(map.At({1 - t, t, 2}).region, 2);
   EXPECT_EQ(map.At({1 - u, u, 2}).region, -1);
   EXPECT_EQ(map.At({NAN, 0, 2}).region, -1);
+  // No `specular` anywhere: each block's law decides it (NaN here, thermal_reflections.h).
+  EXPECT_TRUE(std::isnan(map.At({0.41f, -0.12f, 1.85f}).specular_fraction));
+  EXPECT_TRUE(std::isnan(map.default_surface().specular_fraction));
+}
+
+TEST(EmissivityMap, SpecularFractionWhereGivenAndOnlyThere) {
+  const EmissivityMap map = ParseText(
+      Replace(Replace(kFile, "law: dielectric,", "law: dielectric, specular: 0.05,"), "law: metal\n",
+              "law: metal\n    specular: 0.7\n"));
+  EXPECT_EQ(map.default_surface().specular_fraction, 0.05);
+  EXPECT_EQ(map.At({0.41f, -0.12f, 1.85f}).specular_fraction, 0.7);
+  // A region without the key takes its own law's, not the default block's.
+  EXPECT_TRUE(std::isnan(map.At({0.1f, 0.2f, 1.5f}).specular_fraction));
+  EXPECT_EQ(map.At({5.0f, 5.0f, 5.0f}).specular_fraction, 0.05);
 }
 
 TEST(EmissivityMap, DefaultsComeFromTheRigWhereTheFileLeavesThemOut) {
@@ -165,6 +179,10 @@ std::vector<BadFile> BadFiles() {
       {"reflected below absolute zero", Replace(kFile, "reflected_c: 25.0", "reflected_c: -300"),
        "regions[0].reflected_c: must be in (-273.15, 3000] °C (above absolute zero), got -300",
        "reflected_c: -300"},
+      {"specular above 1", Replace(kFile, "law: metal\n", "law: metal\n    specular: 1.5\n"),
+       "regions[0].specular: must be in [0, 1], got 1.5", "specular: 1.5"},
+      {"negative default specular", Replace(kFile, "law: dielectric,", "law: dielectric, specular: -0.1,"),
+       "default.specular: must be in [0, 1], got -0.1", "default:"},
       {"unknown law", Replace(kFile, "law: metal", "law: steel"),
        "regions[0].law: must be dielectric or metal, got 'steel'", "law: steel"},
       {"metal above the metal range", Replace(kFile, "emissivity: 0.30", "emissivity: 0.6"),

@@ -26,6 +26,7 @@ std::string ThermalFusionOptions::Check() const {
   if (std::string e = confidence.Check(); !e.empty()) return "confidence." + e;
   if (std::string e = offline.Check(); !e.empty()) return "offline." + e;
   if (std::string e = scene_correction.Check(); !e.empty()) return "scene_correction." + e;
+  if (std::string e = reflections.Check(); !e.empty()) return "reflections." + e;
   if (!InRange(recency_bias, 0, 1)) return OptionFail("recency_bias", recency_bias, "in [0, 1]");
   if (!(capped_mean_max_weight >= 1) || !std::isfinite(capped_mean_max_weight)) {
     return OptionFail("capped_mean_max_weight", capped_mean_max_weight, "finite and >= 1");
@@ -131,7 +132,8 @@ void ThermalFusion::Impl::WarpLiveDepth(const core::Rigid3d& world_from_thermal,
   }
 }
 
-std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
+std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const std::vector<PixelReflection>& reflections,
+                                                       const cv::Mat& apparent_c,
                                                        const core::Rigid3d& world_from_thermal,
                                                        const Eigen::Vector3d& linear_velocity_mps,
                                                        const Eigen::Vector3d& angular_velocity_radps, double operating,
@@ -249,17 +251,29 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
           ++part.low_confidence;
           continue;
         }
-        const SurfaceEmissivity e = emissivity.At(map.points[i]);
-        const double emissivity_at_angle =
-            core::DirectionalEmissivity(e.law, e.emissivity, std::clamp(cos_angle, 0.0, 1.0));
+        // The emissivity at the hit: ReflectPixels' when it traced the frame's mirror rays.
+        PixelReflection reflection;
+        if (!reflections.empty()) {
+          reflection = reflections[i];
+        } else {
+          reflection.surface = emissivity.At(map.points[i]);
+          reflection.emissivity_at_angle = static_cast<float>(core::DirectionalEmissivity(
+              reflection.surface.law, reflection.surface.emissivity, std::clamp(cos_angle, 0.0, 1.0)));
+        }
+        const double emissivity_at_angle = reflection.emissivity_at_angle;
         double apparent = row[x];
         if (!vignetting_gain.empty()) {
           // Undo the radiance the optics lost at this pixel.
           apparent = core::KelvinToCelsius(
               band.Temperature(band.Radiance(core::CelsiusToKelvin(apparent)) / static_cast<double>(vignetting_gain[i])));
         }
+        double reflected_c = reflection.surface.reflected_c;
+        MirrorSource source = MirrorSource::kRoom;
+        if (!std::isnan(reflection.mirror_m)) {
+          reflected_c = ReflectedC(map, apparent_c, world_from_thermal, i, reflection, &source);
+        }
         const double surface = emissivity_at_angle > 0
-                                   ? core::SurfaceFromApparent(band, apparent, emissivity_at_angle, e.reflected_c)
+                                   ? core::SurfaceFromApparent(band, apparent, emissivity_at_angle, reflected_c)
                                    : std::numeric_limits<double>::quiet_NaN();
         if (!std::isfinite(surface)) {
           ++part.no_surface;
@@ -279,6 +293,8 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
                                 static_cast<float>(apparent), static_cast<float>(emissivity_at_angle),
                                 static_cast<int32_t>(i)});
         part.confidence_sum += confidence;
+        part.mirror_operator += source == MirrorSource::kOperator;
+        part.mirror_surface += source == MirrorSource::kSurface;
       }
     }
   });
@@ -292,6 +308,8 @@ std::vector<Ray>& ThermalFusion::Impl::ShadeRays(const PointMap& map, const cv::
     record.depth_edge += part.depth_edge;
     record.occluded += part.occluded;
     record.no_surface_temperature += part.no_surface;
+    record.mirror_operator += part.mirror_operator;
+    record.mirror_surface += part.mirror_surface;
     confidence_sum += part.confidence_sum;
     fused.insert(fused.end(), part.rays.begin(), part.rays.end());
   }
@@ -536,14 +554,23 @@ void ThermalFusion::Impl::Fuse(const TsdfVolume& volume, const HeldFrame& frame)
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
     reference_range_m = ranges[ranges.size() / 2];
   }
+  // Each hit's emissivity and its mirror ray, marched here while the volume may be read.
+  const auto reflect_start = std::chrono::steady_clock::now();
+  std::vector<PixelReflection> reflections;
+  if (options.reflections.trace) {
+    reflections = ReflectPixels(volume, map, origin, emissivity, options.reflections, options.num_threads,
+                                &record.mirror_traced);
+  }
+  record.reflect_ms = internal::MsSince(reflect_start);
   // The rest touches only this object's regions, not the volume: it may run while the
   // caller integrates the next depth frames (ThermalFusionOptions::background).
-  auto stage = [this, map = std::move(map), image = frame.image, world_from_thermal = frame.world_from_thermal,
+  auto stage = [this, map = std::move(map), reflections = std::move(reflections), image = frame.image,
+                world_from_thermal = frame.world_from_thermal,
                 linear = frame.linear_velocity_mps, angular = frame.angular_velocity_radps,
                 operating = frame.operating, frozen_s = last_frozen_s](ThermalFrameRecord& out) {
     const auto stage_start = std::chrono::steady_clock::now();
     const cv::Mat corrected = scene_correction.CorrectPixels(image);
-    std::vector<Ray>& fused = ShadeRays(map, corrected, world_from_thermal, linear, angular, operating, out);
+    std::vector<Ray>& fused = ShadeRays(map, reflections, corrected, world_from_thermal, linear, angular, operating, out);
     if (scene_correction.enabled()) CorrectFrame(fused, frozen_s, out);
     camera_in_world = world_from_thermal.translation.cast<float>();
     Splat(fused, out);

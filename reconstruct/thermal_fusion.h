@@ -30,6 +30,7 @@
 #include "reconstruct/emissivity_map.h"
 #include "reconstruct/raycast.h"
 #include "reconstruct/thermal_confidence.h"
+#include "reconstruct/thermal_reflections.h"
 #include "reconstruct/thermal_scene_correction.h"
 #include "reconstruct/thermal_update.h"
 #include "reconstruct/tsdf_volume.h"
@@ -86,6 +87,9 @@ struct ThermalFusionOptions {
   // Scene-based correction of the camera's frame and pixel offsets against the model
   // (thermal_scene_correction.h), applied to every frame before its rays are fused.
   SceneCorrectionOptions scene_correction;
+  // The mirror part of each ray's reflection traced on the model (thermal_reflections.h):
+  // the operator's body, a surface the mirror ray meets, or the room.
+  ThermalReflectionOptions reflections;
   // The estimate written to temperature_c / temperature_apparent_c.
   ThermalMethod method = ThermalMethod::kOffline;
   // Keep the per-frame region observations for the offline estimate (16 bytes each, 2–5 MB
@@ -169,6 +173,12 @@ struct ThermalFrameRecord {
                                    // the reflection alone), core::SurfaceFromApparent
   double mean_confidence = 0;    // over fused rays
   int regions_updated = 0;
+  // Reflections (ThermalFusionOptions::reflections): hits whose mirror ray was traced, and of
+  // the fused rays among them those whose mirror met the operator's body or a model surface
+  // with a temperature (this frame's reading or the fused one); the rest took the room.
+  int mirror_traced = 0;
+  int mirror_operator = 0;
+  int mirror_surface = 0;
   // Scene-based correction (ThermalFusionOptions::scene_correction): rays paired with their
   // region's latest view by a near-same pixel (the frame offset's), rays that met a reference
   // region (the pixel offsets'), each within max_residual_k, whether the pairs sufficed for
@@ -180,7 +190,10 @@ struct ThermalFrameRecord {
   bool offset_estimated = false;
   double offset_correction_k = 0;
   double pixel_offset_rms_k = 0;
-  double raycast_ms = 0, fuse_ms = 0;
+  // The raycast, the emissivity lookup with the mirror rays (ReflectPixels; both in the
+  // caller), and the rest (shading, correction, splatting; in the background stage when it
+  // runs), ms.
+  double raycast_ms = 0, reflect_ms = 0, fuse_ms = 0;
 };
 
 // A depth frame near a thermal frame's time, for the occlusion test

@@ -138,13 +138,18 @@ struct BlockRegions {
 struct ShadePart {
   std::vector<Ray> rays;
   int hits = 0, low_confidence = 0, no_normal = 0, depth_edge = 0, occluded = 0, no_surface = 0;
+  int mirror_operator = 0, mirror_surface = 0;
   double confidence_sum = 0;
   void Clear() {
     rays.clear();
     hits = low_confidence = no_normal = depth_edge = occluded = no_surface = 0;
+    mirror_operator = mirror_surface = 0;
     confidence_sum = 0;
   }
 };
+
+// What a traced mirror ray met (Impl::ReflectedC).
+enum class MirrorSource { kRoom, kOperator, kSurface };
 
 // One splat of a ray (Impl::Splat).
 struct SplatRef {
@@ -327,11 +332,22 @@ struct ThermalFusion::Impl {
   void WarpLiveDepth(const core::Rigid3d& world_from_thermal, std::span<const LiveDepth> live);
   // Computes the rays of one frame (parallel), with the occlusion test against live_range
   // when it is filled; returns the fused ones (valid until the next call).
-  std::vector<Ray>& ShadeRays(const PointMap& map, const cv::Mat& apparent_c,
-                                    const core::Rigid3d& world_from_thermal,
-                                    const Eigen::Vector3d& linear_velocity_mps,
-                                    const Eigen::Vector3d& angular_velocity_radps, double operating,
-                                    ThermalFrameRecord& record);
+  // reflections: ReflectPixels of the map (the emissivity at each hit and its mirror ray), or
+  // empty without tracing (each fused ray then looks its emissivity up itself).
+  std::vector<Ray>& ShadeRays(const PointMap& map, const std::vector<PixelReflection>& reflections,
+                              const cv::Mat& apparent_c, const core::Rigid3d& world_from_thermal,
+                              const Eigen::Vector3d& linear_velocity_mps,
+                              const Eigen::Vector3d& angular_velocity_radps, double operating,
+                              ThermalFrameRecord& record);
+  // The reflected apparent temperature (°C) of pixel i, whose mirror ray was traced
+  // (reflection.mirror_m not NaN): (1 − s)·L(room) + s·L(mirror source), the source the
+  // operator's body when the ray meets it before the model's surface, else that surface's
+  // reading in this frame (apparent_c, vignetting undone) where the frame sees it within
+  // max(3 voxels, 1 % of its range) of the mirror hit, else its regions' mean apparent
+  // temperature (trilinear over the observed ones), else the room; *source says which.
+  // Reads the regions: call before this frame's Splat, not beside one.
+  double ReflectedC(const PointMap& map, const cv::Mat& apparent_c, const core::Rigid3d& world_from_thermal,
+                    size_t i, const PixelReflection& reflection, MirrorSource* source) const;
   // Scene-based correction of one frame's rays (ThermalFusionOptions::scene_correction):
   // their residuals against the reference regions update the estimates, and the frame's
   // offset is taken off every ray (its surface temperature linearised: δ/ε).

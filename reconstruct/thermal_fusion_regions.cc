@@ -8,8 +8,9 @@
 #include "reconstruct/thermal_update.h"
 #include "reconstruct/tsdf_volume_impl.h"
 
-// ThermalFusion's regions: splatting a frame's rays onto voxels, the update rules, and the
-// compaction of the kept observations (thermal_fusion.h).
+// ThermalFusion's regions: splatting a frame's rays onto voxels, the update rules, the
+// compaction of the kept observations (thermal_fusion.h), and the mirror sources read from
+// them (thermal_reflections.h).
 
 namespace hw::reconstruct {
 
@@ -331,6 +332,65 @@ bool ThermalFusion::Impl::UpdateRegion(int32_t r, float max_weight, RecordChunk&
   if (!options.keep_observations) return false;
   frame_records.push_back(Record{r, surface, apparent, confidence});
   return options.max_views_per_region > 0 && region.views > options.max_views_per_region;
+}
+
+double ThermalFusion::Impl::ReflectedC(const PointMap& map, const cv::Mat& apparent_c,
+                                       const core::Rigid3d& world_from_thermal, size_t i,
+                                       const PixelReflection& reflection, MirrorSource* source) const {
+  const ThermalReflectionOptions& o = options.reflections;
+  const SurfaceEmissivity& e = reflection.surface;
+  const Eigen::Vector3f& point = map.points[i];
+  const Eigen::Vector3f origin = world_from_thermal.translation.cast<float>();
+  const Eigen::Vector3f mirror = MirrorDirection((point - origin).normalized(), map.normals[i]);
+  const double room = band.Radiance(core::CelsiusToKelvin(e.reflected_c));
+  double mirror_radiance = room;
+  *source = MirrorSource::kRoom;
+  const std::optional<double> body =
+      IntersectOperatorBody(o, world_from_thermal, point.cast<double>(), mirror.cast<double>());
+  if (body && *body < static_cast<double>(reflection.mirror_m)) {
+    mirror_radiance = band.Radiance(core::CelsiusToKelvin(o.operator_apparent_c));
+    *source = MirrorSource::kOperator;
+  } else if (std::isfinite(reflection.mirror_m)) {
+    const Eigen::Vector3f hit = point + reflection.mirror_m * mirror;
+    // This frame's reading, where it sees the hit.
+    const Eigen::Vector3d hit_in_camera = world_from_thermal.rotation.conjugate() * (hit - origin).cast<double>();
+    if (hit_in_camera.z() > 1e-3) {
+      const Eigen::Vector2d uv = rig.thermal->Project(hit_in_camera);
+      if (rig.thermal->IsInImage(uv)) {
+        const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+        const size_t j = map.Index(u, v);
+        const float tolerance_m = std::max(3 * voxel_m, 0.01f * static_cast<float>(hit_in_camera.norm()));
+        if (IsValid(map.points[j]) && (map.points[j] - hit).norm() <= tolerance_m) {
+          double radiance = band.Radiance(core::CelsiusToKelvin(apparent_c.at<float>(v, u)));
+          if (!vignetting_gain.empty()) radiance /= static_cast<double>(vignetting_gain[j]);
+          mirror_radiance = radiance;
+          *source = MirrorSource::kSurface;
+        }
+      }
+    }
+    // Else what the regions around it have seen so far.
+    if (*source == MirrorSource::kRoom) {
+      std::array<Eigen::Vector3i, 8> voxel;
+      std::array<float, 8> weight;
+      Corners(hit, voxel, weight);
+      uint64_t cached_key = ~uint64_t{0};
+      int32_t cached_block = -1;
+      double radiance = 0, weight_sum = 0;
+      for (int c = 0; c < 8; ++c) {
+        const int32_t r = FindRegion(voxel[c].x(), voxel[c].y(), voxel[c].z(), cached_key, cached_block);
+        if (r < 0 || regions[r].views == 0 || weight[c] <= 0) continue;
+        const double w = weight[c];
+        radiance += w * band.Radiance(core::CelsiusToKelvin(static_cast<double>(regions[r].mean_apparent_c)));
+        weight_sum += w;
+      }
+      if (weight_sum > 0) {
+        mirror_radiance = radiance / weight_sum;
+        *source = MirrorSource::kSurface;
+      }
+    }
+  }
+  const double s = SpecularFraction(e);
+  return core::KelvinToCelsius(band.Temperature((1 - s) * room + s * mirror_radiance));
 }
 
 }  // namespace hw::reconstruct

@@ -111,12 +111,14 @@ inline std::vector<Eigen::Vector3f> PlanePoints() {
 }
 
 // The rules on their own: without the scene-based offset correction, which would take out
-// the offsets some tests give a frame on purpose (tested on its own), and without frame
-// selection.
+// the offsets some tests give a frame on purpose (tested on its own), without frame
+// selection, and with the uniform reflection RenderThermal draws (traced reflections:
+// thermal_reflections_test.cc).
 inline ThermalFusionOptions TestOptions() {
   ThermalFusionOptions o;
   o.num_threads = 2;
   o.scene_correction.frame_offset = o.scene_correction.pixel_offset = false;
+  o.reflections.trace = false;
   o.frame_interval_s = 0;  // every frame, as it comes (frame selection: thermal_fusion_window_test.cc)
   return o;
 }

@@ -112,7 +112,9 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
   for (const char* key : {"\"thermal\"", "\"recency_bias\"", "\"fraction_fused\"", "\"truth_evaluation\"",
                           "\"rmse_uniform_k\"", "\"rmse_affine_k\"", "\"time_since_ffc_s\"", "\"mean_confidence\"",
                           "\"occlusion_margin_m\": 0.1", "\"rays_occluded\"", "\"live_depth_frames\"", "\"occluded\"",
-                          "\"live_depth\": true", "\"by_view_quality\"", "\"confidence_from\""}) {
+                          "\"live_depth\": true", "\"by_view_quality\"", "\"confidence_from\"",
+                          "\"reflections\": {", "\"operator_apparent_c\": 32", "\"mirror_traced\"",
+                          "\"mirror_operator\"", "\"mean_reflect_ms\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
 }
@@ -229,7 +231,7 @@ TEST(ReconstructThermalCli, TheBackgroundStageGivesTheSameModel) {
   for (size_t i = 0; i < j["frames"].size(); ++i) {
     nlohmann::json a = j0["frames"][i], b = j["frames"][i];
     fused += a["status"] == "fused";
-    for (nlohmann::json* f : {&a, &b}) f->erase("raycast_ms"), f->erase("fuse_ms");
+    for (nlohmann::json* f : {&a, &b}) f->erase("raycast_ms"), f->erase("reflect_ms"), f->erase("fuse_ms");
     EXPECT_EQ(a, b) << "frame " << i;
   }
   EXPECT_GE(fused, 5);
@@ -297,10 +299,15 @@ TEST(ReconstructThermalCli, BadThermalOptionsAreExit2) {
   for (const char* bad : {" --thermal-method median", " --recency-bias 1.5", " --confidence-powers 1,1,1",
                           " --confidence-powers 1,1,-1,1,1", " --emissivity-from-truth",
                           " --min-ray-confidence 1", " --thermal-frame-interval -1",
-                          " --thermal-frame-interval 2"}) {
+                          " --thermal-frame-interval 2", " --operator-size 0.4", " --operator-size 0.4,-1",
+                          " --operator-distance 0", " --operator-c -300", " --thermal-reflections maybe"}) {
     const Result r = Heatwave(base + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
   }
+  // The message names the option's field and its constraint.
+  const Result r = Heatwave(base + " --operator-distance 0");
+  EXPECT_NE(r.output.find("reflections.operator_distance_m: must be in (0, 5] m, got 0"), std::string::npos)
+      << r.output;
 }
 
 }  // namespace
