@@ -22,6 +22,8 @@
 #                thermal frame of each S seconds fused (e.g. rig-i0 every frame, gt-poses-i0.3)
 #   NAME-b0      any of the above with --no-thermal-background: each fused frame's shading and
 #                splatting inline instead of beside the depth pipeline (e.g. rig-b0)
+#   NAME-r0      any of the above with --thermal-reflections false: the whole reflection taken
+#                as the uniform reflected temperature, no mirror rays traced (e.g. gt-poses-r0)
 # With --baseline BIN (an earlier build's heatwave), each config also runs with BIN right
 # before this build's run, as NAME@base: the two builds side by side on the same input, in
 # one run (a -b0 config runs only with this build).
@@ -54,7 +56,7 @@ while [[ $# -gt 0 ]]; do
     --scans) scans=$2; shift 2 ;;
     --configs) configs=$2; shift 2 ;;
     --baseline) baseline=$2; shift 2 ;;
-    -h|--help) sed -n '2,39p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,41p' "$0"; exit 0 ;;
     *) echo "unknown option: $1" >&2; exit 2 ;;
   esac
 done
@@ -93,6 +95,10 @@ for scan in $scans; do
     args=(--start-at-groundtruth --overwrite -q)
     base=$config
     background=1
+    if [[ $base =~ ^(.*)-r0$ ]]; then
+      base=${BASH_REMATCH[1]}
+      args+=(--thermal-reflections false)
+    fi
     if [[ $base =~ ^(.*)-b0$ ]]; then
       base=${BASH_REMATCH[1]}
       background=0

@@ -593,6 +593,10 @@ int RunReconstruct(int argc, char** argv) {
                  "a surface with a temperature, or the room) instead of taking the whole reflection as the "
                  "uniform reflected temperature")
       ->capture_default_str();
+  app.add_option("--thermal-reflection-min-weight", t.reflections.min_specular_weight,
+                 "trace a mirror ray only where the specular weight (1 - emissivity at the angle) x specular share "
+                 "reaches this, [0, 1]: below it the uniform reflected temperature stands in")
+      ->capture_default_str();
   app.add_option("--operator-c", t.reflections.operator_apparent_c,
                  "apparent temperature of the person holding the rig, as a shiny surface reflects them, degC")
       ->capture_default_str();

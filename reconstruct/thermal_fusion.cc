@@ -558,7 +558,8 @@ void ThermalFusion::Impl::Fuse(const TsdfVolume& volume, const HeldFrame& frame)
   const auto reflect_start = std::chrono::steady_clock::now();
   std::vector<PixelReflection> reflections;
   if (options.reflections.trace) {
-    reflections = ReflectPixels(volume, map, origin, emissivity, options.reflections, options.num_threads,
+    const float min_cos = static_cast<float>(std::cos(options.confidence.max_angle_deg * M_PI / 180));
+    reflections = ReflectPixels(volume, map, origin, emissivity, options.reflections, min_cos, options.num_threads,
                                 &record.mirror_traced);
   }
   record.reflect_ms = internal::MsSince(reflect_start);

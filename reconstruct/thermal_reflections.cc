@@ -63,8 +63,32 @@ std::optional<double> IntersectOperatorBody(const ThermalReflectionOptions& opti
   return t;
 }
 
+OccupiedRegions::OccupiedRegions(const TsdfVolume& volume)
+    : region_m_(volume.voxel_size_m() * kBlockSide * TsdfVolume::kRegionBlocks) {
+  for (const Eigen::Vector3i& key : volume.RegionKeys()) keys_.insert(internal::PackKey(key.x(), key.y(), key.z()));
+}
+
+bool OccupiedRegions::Contains(int x, int y, int z) const { return keys_.contains(internal::PackKey(x, y, z)); }
+
+namespace {
+
+// The distance along origin + t·d at which it leaves the axis-aligned cube [corner, corner +
+// size) (world frame, m; the cube holds origin + t·d for the current t).
+float ExitCube(const Eigen::Vector3f& origin, const Eigen::Vector3f& d, const int corner[3], float size_m) {
+  float exit_t = std::numeric_limits<float>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) continue;
+    const float bound_m = static_cast<float>(corner[a] + (d[a] > 0 ? 1 : 0)) * size_m;
+    exit_t = std::min(exit_t, (bound_m - origin[a]) / d[a]);
+  }
+  return exit_t;
+}
+
+}  // namespace
+
 float TraceSurface(const TsdfVolume& volume, TsdfSampler& sampler, const Eigen::Vector3f& origin_in_world,
-                   const Eigen::Vector3f& direction_in_world, float start_m, float max_m) {
+                   const Eigen::Vector3f& direction_in_world, float start_m, float max_m,
+                   const OccupiedRegions* regions) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
   const float voxel_m = volume.voxel_size_m();
   const float truncation_m = static_cast<float>(volume.options().truncation_m);
@@ -74,22 +98,23 @@ float TraceSurface(const TsdfVolume& volume, TsdfSampler& sampler, const Eigen::
   float previous_sdf = kInf, previous_t = 0;  // the last observed sample (inf: none)
   float t = start_m;
   while (t <= max_m) {
+
     const Eigen::Vector3f p = origin_in_world + t * d;
     const TsdfSampler::Cell cell = sampler.Locate(p);
     float sdf = 0;
     const TsdfSampler::Status status = sampler.Sample(cell, sdf);
     if (status == TsdfSampler::Status::kNoBlock) {
-      // Leave the block whole: the cells whose lowest corner lies in it span voxel
-      // coordinates [8b, 8b + 8) on each axis.
+
+      // Leave the block whole — the cells whose lowest corner lies in it span voxel
+      // coordinates [8b, 8b + 8) on each axis — or its region, when that has no block.
       left = true;
       previous_sdf = kInf;
-      float exit_t = kInf;
       const int b[3] = {cell.ix >> kBlockShift, cell.iy >> kBlockShift, cell.iz >> kBlockShift};
-      for (int a = 0; a < 3; ++a) {
-        if (d[a] == 0) continue;
-        const float bound_m = static_cast<float>((b[a] + (d[a] > 0 ? 1 : 0)) * kBlockSide) * voxel_m;
-        exit_t = std::min(exit_t, (bound_m - origin_in_world[a]) / d[a]);
-      }
+      const int r[3] = {b[0] >> 3, b[1] >> 3, b[2] >> 3};
+      static_assert(TsdfVolume::kRegionBlocks == 8);
+      const float exit_t = regions != nullptr && !regions->Contains(r[0], r[1], r[2])
+                               ? ExitCube(origin_in_world, d, r, regions->region_m())
+                               : ExitCube(origin_in_world, d, b, voxel_m * kBlockSide);
       t = std::max(exit_t + 1e-4f, t + 1e-4f);
       continue;
     }
@@ -105,7 +130,13 @@ float TraceSurface(const TsdfVolume& volume, TsdfSampler& sampler, const Eigen::
     if (sdf >= 0.5f) left = true;
     previous_sdf = sdf;
     previous_t = t;
-    t += std::max(sdf * truncation_m, half_voxel_m);
+    // sdf is in units of the band of the readings fused there, at least truncation_m: the
+    // block's narrowest band bounds the distance to the surface (VoxelBlock::min_band_m) when
+    // the cell lies inside the block, as the raycast steps (RaycastOptions::band_steps).
+    constexpr int m = kBlockSide - 1;
+    const bool inside = ((cell.ix & m) < m) & ((cell.iy & m) < m) & ((cell.iz & m) < m);
+    const float band_m = inside ? std::max(cell.block->min_band_m, truncation_m) : truncation_m;
+    t += std::max(sdf * band_m, half_voxel_m);
   }
   return kInf;
 }
@@ -113,17 +144,20 @@ float TraceSurface(const TsdfVolume& volume, TsdfSampler& sampler, const Eigen::
 std::vector<PixelReflection> ReflectPixels(const TsdfVolume& volume, const PointMap& map,
                                            const Eigen::Vector3f& camera_in_world,
                                            const EmissivityMap& emissivity,
-                                           const ThermalReflectionOptions& options, int num_threads,
-                                           int* traced) {
+                                           const ThermalReflectionOptions& options, float min_cos_angle,
+                                           int num_threads, int* traced) {
   std::vector<PixelReflection> pixels(map.points.size());
   const int height = map.height, width = map.width;
   const int threads = std::max(1, std::min(ResolveThreads(num_threads), height));
   std::vector<int> traced_by(threads, 0);
   const float start_m = 1.5f * volume.voxel_size_m();
   const float max_m = static_cast<float>(options.max_distance_m);
+  const OccupiedRegions regions(volume);
   internal::RunChunks(threads, [&](int chunk) {
     TsdfSampler sampler(volume);
-    for (int y = chunk * height / threads; y < (chunk + 1) * height / threads; ++y) {
+    // Rows interleaved: the pixels that need a mirror ray cluster (a metal panel, a grazing
+    // floor), and contiguous bands would leave one thread all of them.
+    for (int y = chunk; y < height; y += threads) {
       for (int x = 0; x < width; ++x) {
         const size_t i = map.Index(x, y);
         if (!IsValid(map.points[i]) || !IsValid(map.normals[i])) continue;
@@ -133,10 +167,11 @@ std::vector<PixelReflection> ReflectPixels(const TsdfVolume& volume, const Point
         const float cos_angle = -ray.dot(map.normals[i]);
         pixel.emissivity_at_angle = static_cast<float>(
             core::DirectionalEmissivity(pixel.surface.law, pixel.surface.emissivity, std::clamp(cos_angle, 0.0f, 1.0f)));
-        if (!options.trace || cos_angle <= 0) continue;
+        // Rays beyond the largest angle fused get no confidence (c3 = 0): no mirror ray either.
+        if (!options.trace || cos_angle < min_cos_angle || cos_angle <= 0) continue;
         const double weight = (1 - static_cast<double>(pixel.emissivity_at_angle)) * SpecularFraction(pixel.surface);
         if (weight < options.min_specular_weight || weight <= 0) continue;
-        pixel.mirror_m = TraceSurface(volume, sampler, map.points[i], MirrorDirection(ray, map.normals[i]), start_m, max_m);
+        pixel.mirror_m = TraceSurface(volume, sampler, map.points[i], MirrorDirection(ray, map.normals[i]), start_m, max_m, &regions);
         ++traced_by[chunk];
       }
     }

@@ -88,29 +88,40 @@ TEST(ThermalReflections, OperatorBodyIsAnEllipseBehindTheCamera) {
 TEST(ThermalReflections, TraceSurfaceFindsThePlaneFromTheFrontOnly) {
   const TsdfVolume volume = PlaneVolume();
   TsdfSampler sampler(volume);
-  // From 0.5 m in front (inside the fused band's blocks or not) and from 2 m (through absent
-  // blocks): the plane at z = 1, to the raycast's tolerance (a fraction of a voxel).
-  for (const double z0 : {0.5, -1.0}) {
-    const float t = TraceSurface(volume, sampler, Eigen::Vector3f(0.02f, -0.01f, static_cast<float>(z0)),
-                                 Eigen::Vector3f(0, 0, 1), 0.0f, 5.0f);
-    EXPECT_NEAR(t, 1.0 - z0, 0.003) << z0;
+  const OccupiedRegions occupied(volume);
+  // Regions of 64 cm at 1 cm voxels: the plane z = 1 m lies in z-region 1; at z = −1 m
+  // (region −2) there is nothing.
+  EXPECT_FLOAT_EQ(occupied.region_m(), 0.64f);
+  EXPECT_TRUE(occupied.Contains(0, 0, 1));
+  EXPECT_FALSE(occupied.Contains(0, 0, -2));
+  // Block by block and region by region: the same answers.
+  for (const OccupiedRegions* regions : {static_cast<const OccupiedRegions*>(nullptr), &occupied}) {
+    SCOPED_TRACE(regions ? "regions" : "blocks");
+    auto trace = [&](const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float start_m, float max_m) {
+      return TraceSurface(volume, sampler, origin, direction, start_m, max_m, regions);
+    };
+    // From 0.5 m in front and from 2 m (through absent blocks and regions): the plane at
+    // z = 1, to the raycast's tolerance (a fraction of a voxel).
+    for (const double z0 : {0.5, -1.0}) {
+      EXPECT_NEAR(trace(Eigen::Vector3f(0.02f, -0.01f, static_cast<float>(z0)), Eigen::Vector3f(0, 0, 1), 0, 5),
+                  1.0 - z0, 0.003)
+          << z0;
+    }
+    // Obliquely (40°): the same plane at 0.5 / cos 40°.
+    const Eigen::Vector3f oblique(std::sin(0.698f), 0, std::cos(0.698f));
+    EXPECT_NEAR(trace(Eigen::Vector3f(-0.1f, 0, 0.5f), oblique, 0, 5), 0.5 / std::cos(0.698), 0.004);
+    // Away from it, from behind it, and starting on it towards the cameras: nothing.
+    EXPECT_EQ(trace(Eigen::Vector3f(0, 0, 0.5f), Eigen::Vector3f(0, 0, -1), 0, 5), kInf);
+    EXPECT_EQ(trace(Eigen::Vector3f(0, 0, 1.5f), Eigen::Vector3f(0, 0, -1), 0, 5), kInf);
+    EXPECT_EQ(trace(Eigen::Vector3f(0, 0, 1.0f), Eigen::Vector3f(0.3f, 0, -0.954f), 0.015f, 5), kInf);
+    // Beyond max_m: nothing.
+    EXPECT_EQ(trace(Eigen::Vector3f(0, 0, 0.5f), Eigen::Vector3f(0, 0, 1), 0, 0.4f), kInf);
   }
-  // Obliquely (40°): the same plane at 0.5 / cos 40°.
-  const Eigen::Vector3f oblique(std::sin(0.698f), 0, std::cos(0.698f));
-  EXPECT_NEAR(TraceSurface(volume, sampler, Eigen::Vector3f(-0.1f, 0, 0.5f), oblique, 0, 5), 0.5 / std::cos(0.698),
-              0.004);
-  // Away from it, from behind it, and starting on it towards the cameras: nothing.
-  EXPECT_EQ(TraceSurface(volume, sampler, Eigen::Vector3f(0, 0, 0.5f), Eigen::Vector3f(0, 0, -1), 0, 5), kInf);
-  EXPECT_EQ(TraceSurface(volume, sampler, Eigen::Vector3f(0, 0, 1.5f), Eigen::Vector3f(0, 0, -1), 0, 5), kInf);
-  EXPECT_EQ(TraceSurface(volume, sampler, Eigen::Vector3f(0, 0, 1.0f), Eigen::Vector3f(0.3f, 0, -0.954f), 0.015f, 5),
-            kInf);
-  // Beyond max_m: nothing.
-  EXPECT_EQ(TraceSurface(volume, sampler, Eigen::Vector3f(0, 0, 0.5f), Eigen::Vector3f(0, 0, 1), 0, 0.4f), kInf);
 }
 
 // A thermal raycast of the plane from 0.8 m: a metal plane's every hit is traced (weight
-// (1 − ε)·0.9 ≥ 0.6), a paint's seen head-on none ((1 − 0.95)·0.2 = 0.01 < 0.02); the mirror
-// rays go back past the camera, where the model has nothing: +inf.
+// (1 − ε)·0.9 ≥ 0.6), a paint's seen within 40° of its normal none ((1 − 0.95)·0.2 = 0.01,
+// below 0.05); the mirror rays go back past the camera, where the model has nothing: +inf.
 TEST(ThermalReflections, ReflectPixelsTracesWhereTheSpecularWeightIsEnough) {
   const core::Rig rig = ThermalRig(false);
   const TsdfVolume volume = PlaneVolume();
@@ -129,7 +140,7 @@ TEST(ThermalReflections, ReflectPixelsTracesWhereTheSpecularWeightIsEnough) {
         });
     int traced = -1;
     const std::vector<PixelReflection> pixels = ReflectPixels(volume, map, pose.translation.cast<float>(), emissivity,
-                                                              ThermalReflectionOptions(), 2, &traced);
+                                                              ThermalReflectionOptions(), 0.0f, 2, &traced);
     int with_normal = 0, infinite = 0;
     for (size_t i = 0; i < pixels.size(); ++i) {
       if (!IsValid(map.points[i]) || !IsValid(map.normals[i])) {

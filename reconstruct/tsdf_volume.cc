@@ -336,12 +336,9 @@ void TsdfVolume::ForEachBlock(const std::function<void(const VoxelBlock&)>& f) c
   for (const auto& block : impl_->blocks) f(*block);
 }
 
-void TsdfVolume::ForEachBlockInRegions(
-    const std::function<bool(const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m)>& keep_region,
-    const std::function<void(const VoxelBlock&)>& f) const {
+void TsdfVolume::UpdateRegionIndex() const {
   static_assert(kRegionBlocks == 8);  // region key = block key >> 3
   RegionIndex& r = *regions_;
-  const std::lock_guard<std::mutex> lock(r.mutex);
   for (; r.num_indexed < impl_->blocks.size(); ++r.num_indexed) {
     const VoxelBlock* block = impl_->blocks[r.num_indexed];
     const Eigen::Vector3i key(block->key.x() >> 3, block->key.y() >> 3, block->key.z() >> 3);
@@ -353,6 +350,21 @@ void TsdfVolume::ForEachBlockInRegions(
     }
     r.blocks[it->second].push_back(block);
   }
+}
+
+std::vector<Eigen::Vector3i> TsdfVolume::RegionKeys() const {
+  RegionIndex& r = *regions_;
+  const std::lock_guard<std::mutex> lock(r.mutex);
+  UpdateRegionIndex();
+  return r.keys;
+}
+
+void TsdfVolume::ForEachBlockInRegions(
+    const std::function<bool(const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m)>& keep_region,
+    const std::function<void(const VoxelBlock&)>& f) const {
+  RegionIndex& r = *regions_;
+  const std::lock_guard<std::mutex> lock(r.mutex);
+  UpdateRegionIndex();
   const float region_m = voxel_size_m() * kBlockSide * kRegionBlocks;
   for (size_t i = 0; i < r.keys.size(); ++i) {
     const Eigen::Vector3f min_m = r.keys[i].cast<float>() * region_m;

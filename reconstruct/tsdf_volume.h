@@ -266,8 +266,14 @@ class TsdfVolume {
   void ForEachBlockInRegions(
       const std::function<bool(const Eigen::Vector3f& min_m, const Eigen::Vector3f& max_m)>& keep_region,
       const std::function<void(const VoxelBlock&)>& f) const;
+  // The keys of the regions holding at least one block (region (x, y, z) spans world
+  // [x, x + 1) · kRegionBlocks · kBlockSide voxels on x, likewise y and z), in first-block
+  // order; brings the region index up to date as ForEachBlockInRegions does (so that a ray
+  // can leave empty 32 cm regions whole instead of block by block).
+  std::vector<Eigen::Vector3i> RegionKeys() const;
 
  private:
+  void UpdateRegionIndex() const;  // with regions_->mutex held
   struct Impl;
   struct RegionIndex;
   TsdfOptions options_;
