@@ -3,7 +3,8 @@
 // Temperature on the model (HeatWave, Moghadam & Vidas, CSIRO, §2.2): every thermal pixel's
 // ray is cast through the thermal lens model into the fused TSDF; the surface it meets gets
 // an observation — apparent temperature and, corrected for emissivity (at the viewing angle)
-// and reflected temperature, surface temperature — with the ray's confidence
+// and reflected temperature (its mirror part traced on the model: thermal_reflections.h),
+// surface temperature — with the ray's confidence
 // C_R = Π c_i^p_i (thermal_confidence.h). Each observation goes to the voxel nearest the hit
 // (a "region" is a voxel: 5 mm at the default voxel size) — or, when the pixel's footprint on
 // the surface is wider than a voxel (far or grazing views), to the voxels nearest a grid of

@@ -98,13 +98,11 @@ float TraceSurface(const TsdfVolume& volume, TsdfSampler& sampler, const Eigen::
   float previous_sdf = kInf, previous_t = 0;  // the last observed sample (inf: none)
   float t = start_m;
   while (t <= max_m) {
-
     const Eigen::Vector3f p = origin_in_world + t * d;
     const TsdfSampler::Cell cell = sampler.Locate(p);
     float sdf = 0;
     const TsdfSampler::Status status = sampler.Sample(cell, sdf);
     if (status == TsdfSampler::Status::kNoBlock) {
-
       // Leave the block whole — the cells whose lowest corner lies in it span voxel
       // coordinates [8b, 8b + 8) on each axis — or its region, when that has no block.
       left = true;
