@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -152,6 +155,15 @@ struct ErrorSummary {
   double mean = TemperatureErrorStats::kNaN, max_abs = TemperatureErrorStats::kNaN;
 };
 
+// The median of v (reordered; the mean of the middle two for an even count); v not empty.
+double Median(std::vector<double>& v) {
+  assert(!v.empty());
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  if (v.size() % 2 == 1) return v[mid];
+  return 0.5 * (v[mid] + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
+}
+
 ErrorSummary Summarize(const std::vector<double>& errors) {
   ErrorSummary s;
   if (errors.empty()) return s;
@@ -216,29 +228,59 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
   stats.p95_abs_uniform_k = uniform.p95_abs;
   stats.mean_uniform_k = uniform.mean;
 
-  // Least squares truth ≈ gain · estimate + offset over the uniform subset (centred sums).
-  double n = 0, mean_e = 0, mean_t = 0;
+  // The camera's radiometric error acts on its reading: estimate ≈ gain · truth + offset,
+  // fitted over the uniform subset by least squares of the estimate on the truth (the errors
+  // are the estimate's). Regressing the truth on the estimate instead shrinks the gain
+  // towards 0 by the estimate's error variance over its total (regression dilution): a few
+  // vertices tens of kelvin off — a reflection on metal, a misplaced edge — took it to 0.004
+  // on a tracked sweep, and the "error after the map" became the truth's own spread. Robust:
+  // refitted twice on the vertices within max(5 σ, 1 K) (σ = 1.4826 · MAD) of the last fit, so that such
+  // vertices do not tilt it; the error after the map is then reported over every vertex.
+  struct Pair {
+    double truth, estimate;
+  };
+  std::vector<Pair> pairs;
   for (size_t i = 0; i < estimate_c.size(); ++i) {
     if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
-    ++n;
-    mean_e += (estimate_c[i] - mean_e) / n;
-    mean_t += (comparison.truth_c[i] - mean_t) / n;
+    pairs.push_back({comparison.truth_c[i], estimate_c[i]});
   }
-  double see = 0, set = 0;
-  for (size_t i = 0; i < estimate_c.size(); ++i) {
-    if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
-    see += (estimate_c[i] - mean_e) * (estimate_c[i] - mean_e);
-    set += (estimate_c[i] - mean_e) * (comparison.truth_c[i] - mean_t);
-  }
-  if (n >= 2 && see > 0) {
-    stats.affine_gain = set / see;
-    stats.affine_offset_k = mean_t - stats.affine_gain * mean_e;
-    std::vector<double> residuals;
-    residuals.reserve(static_cast<size_t>(n));
-    for (size_t i = 0; i < estimate_c.size(); ++i) {
-      if (!std::isfinite(estimate_c[i]) || !comparison.uniform[i] || !std::isfinite(comparison.truth_c[i])) continue;
-      residuals.push_back(stats.affine_gain * estimate_c[i] + stats.affine_offset_k - comparison.truth_c[i]);
+  std::vector<uint8_t> inlier(pairs.size(), 1);
+  double gain = std::numeric_limits<double>::quiet_NaN(), offset = gain;
+  for (int pass = 0; pass < 3; ++pass) {
+    double n = 0, mean_t = 0, mean_e = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      if (!inlier[i]) continue;
+      ++n;
+      mean_t += (pairs[i].truth - mean_t) / n;
+      mean_e += (pairs[i].estimate - mean_e) / n;
     }
+    double stt = 0, ste = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      if (!inlier[i]) continue;
+      stt += (pairs[i].truth - mean_t) * (pairs[i].truth - mean_t);
+      ste += (pairs[i].truth - mean_t) * (pairs[i].estimate - mean_e);
+    }
+    if (n < 2 || !(stt > 0) || !(ste > 0)) break;
+    gain = ste / stt;
+    offset = mean_e - gain * mean_t;
+    if (pass == 2) break;
+    std::vector<double> residual(pairs.size());
+    for (size_t i = 0; i < pairs.size(); ++i) residual[i] = pairs[i].estimate - (gain * pairs[i].truth + offset);
+    std::vector<double> sorted = residual;
+    const double median = Median(sorted);
+    for (double& r : sorted) r = std::abs(r - median);
+    const double sigma = 1.4826 * Median(sorted);
+    // At least 1 K: the trimming is for gross errors, not for resolving the noise (a
+    // two-valued residual has a MAD of 0).
+    const double limit = std::max(5 * sigma, 1.0);
+    for (size_t i = 0; i < pairs.size(); ++i) inlier[i] = std::abs(residual[i] - median) <= limit;
+  }
+  if (std::isfinite(gain)) {
+    stats.affine_gain = gain;
+    stats.affine_offset_k = offset;
+    std::vector<double> residuals;
+    residuals.reserve(pairs.size());
+    for (const Pair& p : pairs) residuals.push_back((p.estimate - offset) / gain - p.truth);
     const ErrorSummary affine = Summarize(residuals);
     stats.rmse_affine_k = affine.rmse;
     stats.p95_abs_affine_k = affine.p95_abs;
@@ -340,7 +382,7 @@ std::array<ViewQualityClass, 3> TemperatureErrorsByViewQuality(const Temperature
     c.quality_to = std::isfinite(c.quality_to) ? std::max(c.quality_to, quality[i]) : quality[i];
     if (!std::isfinite(estimate_c[i])) continue;
     const double error = estimate_c[i] - comparison.truth_c[i];
-    const double error_affine = stats.affine_gain * estimate_c[i] + stats.affine_offset_k - comparison.truth_c[i];
+    const double error_affine = (estimate_c[i] - stats.affine_offset_k) / stats.affine_gain - comparison.truth_c[i];
     ++classes[k].compared;
     sum[k] += error * error;
     sum_affine[k] += error_affine * error_affine;

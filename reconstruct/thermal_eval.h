@@ -80,10 +80,13 @@ struct TemperatureErrorStats {
   double rmse_k = kNaN, p95_abs_k = kNaN, mean_k = kNaN, max_abs_k = kNaN;
   // Over compared_uniform, K; NaN when none.
   double rmse_uniform_k = kNaN, p95_abs_uniform_k = kNaN, mean_uniform_k = kNaN;
-  // Over compared_uniform after the least-squares map truth ≈ gain · estimate + offset: what
-  // remains once the camera's radiometric calibration error (a gain and an offset per
-  // session, ±1–2 K for uncooled cameras, which no fusion rule can see and the calibration
-  // bench measures) is taken out; NaN with fewer than 2 vertices or no spread.
+  // Over compared_uniform after taking out the camera's radiometric calibration error (a gain
+  // and an offset per session, ±1–2 K for uncooled cameras, which no fusion rule can see and
+  // the calibration bench measures): estimate ≈ affine_gain · truth + affine_offset_k fitted
+  // by least squares of the estimate on the truth, refitted twice without the vertices
+  // beyond max(5 σ (MAD), 1 K) of the fit, and the error of (estimate − offset) / gain over every
+  // vertex; NaN with fewer than 2 vertices or no spread. (Until stop 58 the fit regressed
+  // the truth on the estimate, which the estimate's outliers shrank towards a gain of 0.)
   double affine_gain = kNaN, affine_offset_k = kNaN;
   double rmse_affine_k = kNaN, p95_abs_affine_k = kNaN;
   // Over compared vertices on low-emissivity surfaces (truth emissivity < kLowEmissivity:

@@ -119,11 +119,34 @@ TEST(TemperatureErrors, AffineFitTakesOutACameraGainAndOffset) {
   }
   const TemperatureErrorStats s = TemperatureErrors(c, estimate);
   EXPECT_NEAR(s.mean_uniform_k, 0.02 * (20 + 0.3 * 49.5) + 1.5, 0.05);
-  EXPECT_NEAR(s.affine_gain, 1 / 1.02, 2e-3);
+  EXPECT_NEAR(s.affine_gain, 1.02, 2e-3);
+  EXPECT_NEAR(s.affine_offset_k, 1.5, 0.03);
   EXPECT_NEAR(s.rmse_affine_k, 0.1 / 1.02, 5e-3);
   // The excluded vertices are all odd (+0.1): the fit sees a few more −0.1 than +0.1, which
   // shifts its offset by ~0.01 K.
   EXPECT_LT(s.p95_abs_affine_k, 0.12);
+}
+
+// The same camera (gain 1.02, offset +1.5 K, ±0.1 K) and 4 % of the vertices 30–80 K off
+// (reflections on metal, misplaced edges): the fit keeps the camera's gain and offset — the
+// regression of the truth on the estimate gave 0.37 here (a camera gain of 2.7) — and the
+// error after it counts the outliers at their full size.
+TEST(TemperatureErrors, AffineFitIsNotTiltedByOutliers) {
+  TemperatureComparison c;
+  std::vector<double> estimate;
+  double outlier_sum2 = 0;
+  for (int i = 0; i < 200; ++i) {
+    c.truth_c.push_back(20 + 0.15 * i);
+    c.uniform.push_back(1);
+    const double outlier = i % 25 == 7 ? 30.0 + 5 * (i % 11) : 0.0;
+    estimate.push_back(1.02 * c.truth_c.back() + 1.5 + ((i % 2) ? 0.1 : -0.1) + outlier);
+    outlier_sum2 += std::pow(outlier / 1.02, 2);
+  }
+  const TemperatureErrorStats s = TemperatureErrors(c, estimate);
+  EXPECT_NEAR(s.affine_gain, 1.02, 2e-3);
+  EXPECT_NEAR(s.affine_offset_k, 1.5, 0.05);
+  EXPECT_NEAR(s.rmse_affine_k, std::sqrt((outlier_sum2 + 192 * std::pow(0.1 / 1.02, 2)) / 200), 0.05);
+  EXPECT_NEAR(s.p95_abs_affine_k, 0.1 / 1.02, 0.01);  // the 95th percentile: the ±0.1 K vertices
 }
 
 // Nine uniform vertices of qualities 0.1 … 0.9 in shuffled order, one outside the uniform
@@ -151,9 +174,9 @@ TEST(TemperatureErrors, ByViewQualityTerciles) {
     EXPECT_NEAR(classes[k].rmse_k, k + 1.0, 1e-12) << k;
     EXPECT_TRUE(std::isnan(classes[k].rmse_affine_k)) << k;
   }
-  // A gain/offset map of 1 and −2 K: residuals −1, 0, +1 K.
+  // A camera gain of 1 and offset of +2 K taken out: residuals −1, 0, +1 K.
   stats.affine_gain = 1;
-  stats.affine_offset_k = -2;
+  stats.affine_offset_k = 2;
   const std::array<ViewQualityClass, 3> mapped = TemperatureErrorsByViewQuality(c, stats, estimate, q);
   EXPECT_NEAR(mapped[0].rmse_affine_k, 1, 1e-12);
   EXPECT_NEAR(mapped[1].rmse_affine_k, 0, 1e-12);
