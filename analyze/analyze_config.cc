@@ -28,7 +28,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
                                    "cold_below_c", "kinds", "boundary_fraction", "min_area_m2",
                                    "max_area_m2", "background_radius_m", "min_ring_coverage", "min_ring_area_ratio",
                                    "min_contrast_sigmas", "min_views", "min_views_ratio", "max_view_spread_ratio",
-                                   "optics_psf_px", "min_resolved_px", "max_candidates"});
+                                   "min_emissivity", "optics_psf_px", "min_resolved_px", "max_candidates"});
   if (f.Has("detect")) {
     const std::string s = reader.String(f.Required("detect"), f.Path("detect"));
     if (s == "delta") {
@@ -68,6 +68,7 @@ void ParseSpots(const YamlReader& reader, const YAML::Node& node, SpotOptions* o
   number("min_views", &o->min_views);
   number("min_views_ratio", &o->min_views_ratio);
   number("max_view_spread_ratio", &o->max_view_spread_ratio);
+  number("min_emissivity", &o->min_emissivity);
   number("optics_psf_px", &o->optics_psf_px);
   number("min_resolved_px", &o->min_resolved_px);
   if (f.Has("max_candidates")) o->max_candidates = reader.Integer(f.Required("max_candidates"), f.Path("max_candidates"));

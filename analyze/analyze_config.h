@@ -21,6 +21,7 @@
 //     min_views: 3                  # reconstruct's meshes: seen in >= 3 thermal frames
 //     min_views_ratio: 0.5          # ... and in >= half the frames that saw its surroundings
 //     max_view_spread_ratio: 0.5    # ... whose spread across views is < 0.5 |ΔT|
+//     min_emissivity: 0.5           # corrected meshes: no spot on a surface of emissivity < 0.5
 //   reflections:                    # is a spot a reflection? (analyze/spot_reflection.h)
 //     check: true
 //     operator_radius_m: 0.6        # the thermographer's body around the camera

@@ -127,6 +127,14 @@ AnalyzeResult Analyze(const ThermalMesh& mesh, const AnalyzeInputs& inputs, cons
     const SpotFinder finder(mesh, config.spots);
     result.detection = finder.Detect();
     result.timings.detect_s = Seconds(t);
+    if (result.detection->unrated_area_m2 > 0) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "%.0f cm² of the observed surface has an emissivity below %g (bare metal, glazing): its reading is "
+                    "mostly reflection, so no spot is rated there; tape or paint it and re-measure (spots.min_emissivity)",
+                    1e4 * result.detection->unrated_area_m2, config.spots.min_emissivity);
+      result.warnings.push_back(text);
+    }
     if (check_reflections) {
       const auto tr = Clock::now();
       CheckReflections(mesh, *bvh, config.reflections, &result.detection->spots);
@@ -385,6 +393,7 @@ std::string AnalyzeJson(const ThermalMesh& mesh, const AnalyzeInputs& inputs, co
     }
     root.Int("candidates", r.detection->candidates);
     root.Int("candidates_unmeasured", r.detection->unmeasured);
+    root.Number("unrated_area_m2", r.detection->unrated_area_m2);
   }
   root.Add("spots", core::JsonArray(spots, "  "));
   root.Add("rejected", core::JsonArray(rejected, "  "));

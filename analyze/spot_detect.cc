@@ -29,6 +29,7 @@ size_t U(int i) { return static_cast<size_t>(i); }
 // Everything one measurement needs, shared over candidates.
 struct Context {
   const ThermalMesh& mesh;
+  const std::vector<double>& temperature_c;  // the mesh's, unrated surface NaN (min_emissivity)
   const VertexGraph& graph;
   const std::vector<double>& field;  // oriented: hot spots are maxima (cold: negated)
   const std::vector<double>& vertex_area;
@@ -367,7 +368,7 @@ bool MeasureCandidate(const Context& c, int seed, double start_reference, double
 // Uncertainties of area, length and width (one sigma), and the reconstruct fields.
 void FillSpot(const Context& c, const Measured& m, double sign, Spot* spot) {
   const ThermalMesh& mesh = c.mesh;
-  const std::vector<double>& t = mesh.temperature_c;
+  const std::vector<double>& t = c.temperature_c;
   spot->reference_c = sign * m.reference;
   spot->level_c = sign * m.level;
   spot->area_m2 = m.iso.area_m2;
@@ -537,12 +538,27 @@ struct SpotFinder::Impl {
   const ThermalMesh& mesh;
   SpotOptions options;
   Prepared prepared;
+  // temperature_c with the surface below min_emissivity unobserved (NaN), and that surface's
+  // area; empty when nothing is masked.
+  std::vector<double> rated_c;
+  double unrated_area_m2 = 0;
+  const std::vector<double>& Temperature() const { return rated_c.empty() ? mesh.temperature_c : rated_c; }
 };
 
 SpotFinder::SpotFinder(const ThermalMesh& mesh, const SpotOptions& options)
-    : impl_(std::make_unique<Impl>(Impl{mesh, options, Prepared(mesh, options)})) {
+    : impl_(std::make_unique<Impl>(Impl{mesh, options, Prepared(mesh, options), {}, 0})) {
   assert(mesh.HasTemperature());
   assert(options.Check().empty());
+  // A reading corrected with a low emissivity is mostly reflection (SpotOptions::min_emissivity):
+  // not a temperature to search, neither as a spot nor as anyone's surroundings.
+  if (mesh.emissivity.empty() || options.min_emissivity <= 0) return;
+  Impl& m = *impl_;
+  for (size_t v = 0; v < mesh.emissivity.size(); ++v) {
+    if (!(mesh.emissivity[v] < options.min_emissivity) || !std::isfinite(mesh.temperature_c[v])) continue;
+    if (m.rated_c.empty()) m.rated_c = mesh.temperature_c;
+    m.rated_c[v] = kNaN;
+    m.unrated_area_m2 += m.prepared.vertex_area[v];
+  }
 }
 
 SpotFinder::~SpotFinder() = default;
@@ -557,19 +573,21 @@ SpotDetection SpotFinder::Detect() const {
   const Prepared& prepared = impl_->prepared;
   SpotDetection result;
   result.field = mesh.temperature_field;
+  result.unrated_area_m2 = impl_->unrated_area_m2;
+  const std::vector<double>& temperature = impl_->Temperature();
   const VertexGraph& graph = prepared.graph;
   const std::vector<double>& vertex_area = prepared.vertex_area;
   const std::vector<SeverityBand>& table = prepared.table;
   const std::vector<double> background =
       options.reference == SpotOptions::Reference::kSurrounding || options.detect == SpotOptions::Detect::kDelta
-          ? LocalBackground(mesh, mesh.temperature_c, vertex_area, options.background_radius_m)
+          ? LocalBackground(mesh, temperature, vertex_area, options.background_radius_m)
           : std::vector<double>(U(mesh.NumVertices()), kNaN);
 
   for (const bool hot : {true, false}) {
     if ((hot && !options.find_hot) || (!hot && !options.find_cold)) continue;
     const double sign = hot ? 1.0 : -1.0;
-    std::vector<double> field(mesh.temperature_c.size());
-    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * mesh.temperature_c[v];
+    std::vector<double> field(temperature.size());
+    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * temperature[v];
     std::vector<double> oriented_background(background.size());
     for (size_t v = 0; v < background.size(); ++v) oriented_background[v] = sign * background[v];
     const double ambient = sign * options.ambient_c;
@@ -577,7 +595,7 @@ SpotDetection SpotFinder::Detect() const {
     std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
     std::vector<int> ring_source(field.size(), -1);
     std::vector<char> ring_seen(field.size(), 0);
-    Context c{mesh, graph, field, vertex_area, options, prepared.vertex_faces, &ring_distance, &ring_source,
+    Context c{mesh, temperature, graph, field, vertex_area, options, prepared.vertex_faces, &ring_distance, &ring_source,
               &ring_seen};
 
     // Candidate vertices and their components.
@@ -679,7 +697,7 @@ SpotDetection SpotFinder::Detect() const {
       // sweep over a stronger peak of another component, which keeps its own measurement.
       for (int v : m.region) visited[U(v)] |= field[U(v)] <= field[U(seed.peak)];
       if (!accepted) {
-        result.rejected.push_back({hot, mesh.temperature_c[U(seed.peak)], mesh.points_in_world[U(seed.peak)], reason});
+        result.rejected.push_back({hot, temperature[U(seed.peak)], mesh.points_in_world[U(seed.peak)], reason});
         continue;
       }
       // Regions do not overlap: one reaching an accepted spot's is that spot again (found
@@ -715,8 +733,9 @@ std::vector<std::optional<Spot>> SpotFinder::MeasureAtLevels(const std::vector<L
     o.detect = SpotOptions::Detect::kAbsolute;
     o.hot_above_c = request.hot ? request.level_c : request.level_c + 1;
     o.cold_below_c = request.hot ? request.level_c - 1 : request.level_c;
-    std::vector<double> field(mesh.temperature_c.size());
-    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * mesh.temperature_c[v];
+    const std::vector<double>& temperature = impl_->Temperature();
+    std::vector<double> field(temperature.size());
+    for (size_t v = 0; v < field.size(); ++v) field[v] = sign * temperature[v];
     // The seed: the vertex nearest the given point among those beyond the level.
     int seed = -1;
     double best = 0;
@@ -735,7 +754,7 @@ std::vector<std::optional<Spot>> SpotFinder::MeasureAtLevels(const std::vector<L
     std::vector<double> ring_distance(field.size(), std::numeric_limits<double>::infinity());
     std::vector<int> ring_source(field.size(), -1);
     std::vector<char> ring_seen(field.size(), 0);
-    Context c{mesh, prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces, &ring_distance, &ring_source,
+    Context c{mesh, impl_->Temperature(), prepared.graph, field, prepared.vertex_area, o, prepared.vertex_faces, &ring_distance, &ring_source,
               &ring_seen};
     std::vector<char> in_region(field.size(), 0);
     Measured m;

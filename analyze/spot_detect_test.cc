@@ -450,6 +450,36 @@ TEST(SpotDetectTest, AWholePartIsNotASpotWhenItsCreaseIsRounded) {
   EXPECT_GT(own.spots[0].area_m2, depth * height * 0.9);
 }
 
+// A mesh corrected for emissivity (temperature_emissivity): a 10 K spot on bare metal
+// (ε 0.28, the surface round it painted) is not a measurement — not searched, its area
+// reported; on paint, or without the field (fixture truth), or with the rule off: found.
+TEST(SpotDetectTest, ASpotOnALowEmissivitySurfaceIsNotRated) {
+  const ThermalMesh base = Plane(1.0, 0.01, [](double x, double y) {
+    return Plateau(std::hypot(x, y) - 0.05, 20, 30, 0.005);  // ΔT 10 K, r 5 cm
+  });
+  auto with = [&](double spot_emissivity) {
+    ThermalMesh mesh = base;
+    mesh.emissivity.assign(mesh.points_in_world.size(), 0.93);
+    for (size_t v = 0; v < mesh.points_in_world.size(); ++v) {
+      if (mesh.points_in_world[v].norm() < 0.06) mesh.emissivity[v] = spot_emissivity;
+    }
+    return mesh;
+  };
+  const SpotDetection metal = DetectSpots(with(0.28), SpotOptions());
+  EXPECT_TRUE(metal.spots.empty());
+  // The metal disc (r 6 cm at 1 cm vertex spacing) is the surface not rated.
+  EXPECT_NEAR(metal.unrated_area_m2, M_PI * 0.06 * 0.06, 0.0015);
+  const SpotDetection paint = DetectSpots(with(0.9), SpotOptions());
+  EXPECT_EQ(paint.spots.size(), 1u);
+  EXPECT_EQ(paint.unrated_area_m2, 0);
+  EXPECT_EQ(DetectSpots(base, SpotOptions()).spots.size(), 1u);
+  SpotOptions off;
+  off.min_emissivity = 0;
+  EXPECT_EQ(DetectSpots(with(0.28), off).spots.size(), 1u);
+  off.min_emissivity = 1.5;
+  EXPECT_NE(off.Check().find("min_emissivity"), std::string::npos);
+}
+
 // The fields reconstruct adds: a spot is confirmed only when enough thermal frames saw it
 // (min_views) and they agree about it (max_view_spread_ratio).
 TEST(SpotDetectTest, ASpotTheViewsDoNotConfirmIsRejected) {

@@ -92,6 +92,7 @@ std::string SpotOptions::Check() const {
   if (!core::InRange(max_view_spread_ratio, 0, 1e6)) {
     return core::OptionFail("max_view_spread_ratio", max_view_spread_ratio, "in [0, 1e6]");
   }
+  if (!core::InRange(min_emissivity, 0, 1)) return core::OptionFail("min_emissivity", min_emissivity, "in [0, 1]");
   if (!core::InRange(optics_psf_px, 0, 20)) return core::OptionFail("optics_psf_px", optics_psf_px, "in [0, 20]");
   if (!core::InRange(min_resolved_px, 0, 1000)) {
     return core::OptionFail("min_resolved_px", min_resolved_px, "in [0, 1000]");

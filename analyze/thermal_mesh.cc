@@ -224,6 +224,7 @@ ThermalMesh MakeThermalMesh(const core::PlyMesh& ply, const std::filesystem::pat
   mesh.views = OptionalField(ply, "temperature_views", kept);
   mesh.std_c = OptionalField(ply, "temperature_std_c", kept);
   mesh.footprint_m = OptionalField(ply, "temperature_footprint_m", kept);
+  mesh.emissivity = OptionalField(ply, "temperature_emissivity", kept);
   {
     const std::vector<double> vx = OptionalField(ply, "temperature_view_x", kept);
     const std::vector<double> vy = OptionalField(ply, "temperature_view_y", kept);

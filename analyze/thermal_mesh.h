@@ -47,6 +47,9 @@ struct ThermalMesh {
   std::vector<double> views;       // temperature_views, count of thermal frames
   std::vector<double> std_c;       // temperature_std_c, K, spread across views
   std::vector<double> footprint_m; // temperature_footprint_m, m, a thermal pixel on the surface
+  // temperature_emissivity: the normal emissivity temperature_c was corrected with (NaN where
+  // unobserved). Not the truth's `emissivity` (a material property, exact temperatures).
+  std::vector<double> emissivity;
   // temperature_view_x/_y/_z: from the vertex to where the thermal camera saw it from (mean
   // of the views' centres), world frame, m; NaN components where unobserved.
   std::vector<Eigen::Vector3d> view_m;

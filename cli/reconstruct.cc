@@ -286,7 +286,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   if (thermal) {
     const reconstruct::PointTemperatures t = thermal->Sample(mesh.positions, thermal->options().method);
     for (uint16_t views : t.views) r.thermal->vertices_observed += views > 0;
-    AddTemperatureProperties(t, ply);
+    AddTemperatureProperties(t, mesh.positions, thermal->emissivity(), ply);
   }
   ply.comments.push_back("heatwave reconstruct: world frame, metres");
   core::WriteTumTrajectory(options.out_folder / "trajectory.txt", reconstruction.trajectory());

@@ -146,9 +146,17 @@ void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruc
   r.method = reconstruct::ThermalMethodName(fusion.options().method);
 }
 
-void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::PlyMesh& ply) {
+void AddTemperatureProperties(const reconstruct::PointTemperatures& t, const std::vector<Eigen::Vector3f>& positions,
+                              const reconstruct::EmissivityMap& emissivity, core::PlyMesh& ply) {
   const auto to_double = [](const auto& v) { return std::vector<double>(v.begin(), v.end()); };
   ply.AddProperty("temperature_c", core::PlyType::kFloat32, to_double(t.surface_c));
+  // The normal emissivity temperature_c was corrected with (NaN where unobserved): analyze
+  // does not take a spot on a low-emissivity surface for a measurement.
+  std::vector<double> used(positions.size(), std::numeric_limits<double>::quiet_NaN());
+  for (size_t i = 0; i < positions.size(); ++i) {
+    if (t.views[i] > 0) used[i] = emissivity.At(positions[i]).emissivity;
+  }
+  ply.AddProperty("temperature_emissivity", core::PlyType::kFloat32, std::move(used));
   ply.AddProperty("temperature_apparent_c", core::PlyType::kFloat32, to_double(t.apparent_c));
   ply.AddProperty("temperature_confidence", core::PlyType::kFloat32, to_double(t.confidence));
   ply.AddProperty("temperature_views", core::PlyType::kUInt16, to_double(t.views));

@@ -27,10 +27,12 @@ std::unique_ptr<reconstruct::ThermalFusion> MakeThermalFusion(const ReconstructC
 void SummarizeThermal(const reconstruct::ThermalFusion& fusion, const reconstruct::ScanReconstruction& run,
                       const core::Scan& scan, ThermalCommandResult& result);
 
-// Adds temperature_c, temperature_apparent_c, temperature_confidence, temperature_views,
-// temperature_std_c, temperature_footprint_m and temperature_view_x/_y/_z (per vertex of
-// `ply`, in that order) from `t`.
-void AddTemperatureProperties(const reconstruct::PointTemperatures& t, core::PlyMesh& ply);
+// Adds temperature_c, temperature_emissivity (emissivity.At each of `positions`, the model's
+// vertices, where observed; NaN elsewhere), temperature_apparent_c, temperature_confidence,
+// temperature_views, temperature_std_c, temperature_footprint_m and temperature_view_x/_y/_z
+// (per vertex of `ply`, in that order) from `t`.
+void AddTemperatureProperties(const reconstruct::PointTemperatures& t, const std::vector<Eigen::Vector3f>& positions,
+                              const reconstruct::EmissivityMap& emissivity, core::PlyMesh& ply);
 
 // Every method's error at the model vertices (already in the truth's frame) against truth.
 void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,

@@ -278,6 +278,7 @@ class ThermalFusion {
 
   const std::vector<ThermalFrameRecord>& frames() const;
   const ThermalFusionOptions& options() const;
+  const EmissivityMap& emissivity() const;  // what the correction assumes where
   size_t NumRegions() const;     // voxels with at least one observation
   size_t NumObservations() const;  // kept for the offline estimate
   // Observations dropped by max_views_per_region so far (at compactions and Finish).
