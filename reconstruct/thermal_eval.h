@@ -83,7 +83,9 @@ struct TemperatureErrorStats {
   // Over compared_uniform after taking out the camera's radiometric calibration error (a gain
   // and an offset per session, ±1–2 K for uncooled cameras, which no fusion rule can see and
   // the calibration bench measures): estimate ≈ affine_gain · truth + affine_offset_k fitted
-  // by least squares of the estimate on the truth, refitted twice without the vertices
+  // by least squares of the estimate on the truth, the gain held within [0.9, 1.1] (a camera
+  // is off by a few per cent; beyond, the fit would be taking out the fusion's own loss of
+  // contrast), refitted twice without the vertices
   // beyond max(5 σ (MAD), 1 K) of the fit, and the error of (estimate − offset) / gain over every
   // vertex; NaN with fewer than 2 vertices or no spread. (Until stop 58 the fit regressed
   // the truth on the estimate, which the estimate's outliers shrank towards a gain of 0.)

@@ -149,6 +149,24 @@ TEST(TemperatureErrors, AffineFitIsNotTiltedByOutliers) {
   EXPECT_NEAR(s.p95_abs_affine_k, 0.1 / 1.02, 0.01);  // the 95th percentile: the ±0.1 K vertices
 }
 
+// A fusion that loses half the contrast (a misregistered model smears hot onto cool): the
+// fitted gain stops at 0.9, so the map takes out at most a camera's gain and the loss stays
+// in the error (the unclamped fit would call it a gain of 0.5 and report no error).
+TEST(TemperatureErrors, AffineFitDoesNotTakeOutAFusionsLossOfContrast) {
+  TemperatureComparison c;
+  std::vector<double> estimate;
+  for (int i = 0; i < 100; ++i) {
+    c.truth_c.push_back(20 + 0.4 * i);  // 20 … 59.6 °C
+    c.uniform.push_back(1);
+    estimate.push_back(0.5 * c.truth_c.back() + 20);
+  }
+  const TemperatureErrorStats s = TemperatureErrors(c, estimate);
+  EXPECT_DOUBLE_EQ(s.affine_gain, 0.9);
+  // (0.5 t + 20 − o) / 0.9 − t with o the least-squares offset at gain 0.9: a line of slope
+  // −4/9 through zero at the mean truth (39.8 °C): RMSE 4/9 · σ_t, σ_t = 0.4 · √((100² − 1)/12).
+  EXPECT_NEAR(s.rmse_affine_k, 4.0 / 9 * 0.4 * std::sqrt((100.0 * 100 - 1) / 12), 1e-6);
+}
+
 // Nine uniform vertices of qualities 0.1 … 0.9 in shuffled order, one outside the uniform
 // subset and one without a quality (neither counted), the estimate's error 1 K in the
 // lowest third, 2 K in the middle one, 3 K in the best, one vertex unobserved: classes
