@@ -42,7 +42,7 @@ struct ThermalReflectionOptions {
   // at 60–78° then errs by up to 0.05 × contrast / ε — 0.6 K for a person 12 K over the
   // room, 2 K where it mirrors a 40 K hotter motor — on rays the angle term already weighs
   // at cos θ <= 0.5. Measured (README, Reflections traced on the model): on a 4 s
-  // full-size sweep 0.02 traced 444 k mirror rays and 0.05 35 k, for 0.327 vs 0.330 K;
+  // full-size sweep 0.02 traced 440 k mirror rays and 0.05 35 k, for 0.337 vs 0.338 K;
   // with the rig's one emissivity 0.02 cost 12 % of the whole pipeline's rate for no change
   // in the error. [0, 1].
   double min_specular_weight = 0.05;
