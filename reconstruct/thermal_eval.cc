@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "core/error.h"
+#include "core/median.h"
 #include "core/ply.h"
 #include "reconstruct/mesh_query.h"
 #include "reconstruct/option_check.h"
@@ -155,16 +156,8 @@ struct ErrorSummary {
   double mean = TemperatureErrorStats::kNaN, max_abs = TemperatureErrorStats::kNaN;
 };
 
-// The median of v (reordered; the mean of the middle two for an even count); v not empty.
+// The gains the camera's gain/offset map may take (TemperatureErrors).
 constexpr double kMinCameraGain = 0.9, kMaxCameraGain = 1.1;
-
-double Median(std::vector<double>& v) {
-  assert(!v.empty());
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-  if (v.size() % 2 == 1) return v[mid];
-  return 0.5 * (v[mid] + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
-}
 
 ErrorSummary Summarize(const std::vector<double>& errors) {
   ErrorSummary s;
@@ -236,8 +229,9 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
   // towards 0 by the estimate's error variance over its total (regression dilution): a few
   // vertices tens of kelvin off — a reflection on metal, a misplaced edge — took it to 0.004
   // on a tracked sweep, and the "error after the map" became the truth's own spread. Robust:
-  // refitted twice on the vertices within max(5 σ, 1 K) (σ = 1.4826 · MAD) of the last fit, so that such
-  // vertices do not tilt it; the error after the map is then reported over every vertex.
+  // refitted twice on the vertices within max(5 σ, 1 K) (σ = 1.4826 · MAD) of the last fit,
+  // so that such vertices do not tilt it; the error after the map is then reported over every
+  // vertex.
   struct Pair {
     double truth, estimate;
   };
@@ -272,10 +266,10 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
     if (pass == 2) break;
     std::vector<double> residual(pairs.size());
     for (size_t i = 0; i < pairs.size(); ++i) residual[i] = pairs[i].estimate - (gain * pairs[i].truth + offset);
-    std::vector<double> sorted = residual;
-    const double median = Median(sorted);
-    for (double& r : sorted) r = std::abs(r - median);
-    const double sigma = 1.4826 * Median(sorted);
+    const double median = core::Median(residual);
+    std::vector<double> deviation(residual.size());
+    for (size_t i = 0; i < residual.size(); ++i) deviation[i] = std::abs(residual[i] - median);
+    const double sigma = 1.4826 * core::Median(std::move(deviation));
     // At least 1 K: the trimming is for gross errors, not for resolving the noise (a
     // two-valued residual has a MAD of 0).
     const double limit = std::max(5 * sigma, 1.0);

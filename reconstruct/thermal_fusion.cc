@@ -733,7 +733,6 @@ const std::vector<ThermalFrameRecord>& ThermalFusion::frames() const {
   return impl_->frames;
 }
 const ThermalFusionOptions& ThermalFusion::options() const { return impl_->options; }
-
 const EmissivityMap& ThermalFusion::emissivity() const { return impl_->emissivity; }
 size_t ThermalFusion::NumRegions() const {
   impl_->Wait();
