@@ -12,6 +12,7 @@
 #include "cli/command.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/median.h"
 #include "core/option_check.h"
 #include "core/output_folder.h"
 #include "core/ply.h"
@@ -170,6 +171,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.load_seconds = run.load_seconds;
   r.process_seconds = run.process_seconds;
   r.missing = run.missing_frames;
+  r.tracked_depth_only = run.tracked_depth_only;
   r.unposed = run.unposed_frames;
   r.keyframes = reconstruction.keyframes().size();
   r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
@@ -178,6 +180,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
                                             c->ScaleMeasured() ? ", depth scale measured on the plate" : "");
   }
   r.noise_gate_sigmas = options.reconstruction.icp.noise_gate_sigmas;
+  std::vector<double> basins;
   for (const FrameRecord& f : reconstruction.frames()) {
     r.fused += f.fused;
     r.integrated += f.integrated;
@@ -191,6 +194,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.tracked += f.status == FrameStatus::kTracked;
     r.recovered += f.status == FrameStatus::kRecovered;
     r.recovered_from_keyframe += f.status == FrameStatus::kRecovered && f.keyframe >= 0;
+    if (std::isfinite(f.basin_m)) basins.push_back(f.basin_m);
+    r.unconstrained += f.unconstrained;
     r.held += f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.widened += f.status == FrameStatus::kTracked && f.widened_gate;
@@ -205,7 +210,11 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.integrate_ms += f.integrate_ms;
     r.raycast_ms += f.raycast_ms;
     r.raycasts += f.raycast_ms > 0;
-  }
+  }  r.basin_checked = static_cast<int>(basins.size());
+  r.basin_check_m = options.reconstruction.basin_check_m;
+  r.drop_unconstrained = options.reconstruction.drop_unconstrained;
+  if (!basins.empty()) r.median_basin_m = core::Median(basins);
+
   const double n = std::max<size_t>(1, reconstruction.frames().size());
   r.prepare_ms /= n;
   r.prepare_ahead_ms /= n;
@@ -322,6 +331,19 @@ std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
                               "--dynamic-margin\n",
                               static_cast<long long>(r.dynamic_pixels), r.dynamic_frames,
                               static_cast<long long>(r.carved_points), r.carved_frames);
+  }
+  if (r.tracked_depth_only > 0 && 2 * r.tracked_depth_only >= r.tracked + r.recovered) {
+    out += core::StringPrintf("Tracking   %d of %d frames aligned on depth alone: along a plain wall it can slide "
+                              "undetected (README, Tracking without colour); track with colour, or check the "
+                              "trajectory\n",
+                              r.tracked_depth_only, r.tracked + r.recovered);
+  }
+  if (r.basin_checked > 0) {
+    out += core::StringPrintf("Tracking   basin check: %d of %d depth-alone frames unconstrained (ICP moved %.0f mm along "
+                              "its weakest direction came back less than half way; median %.1f mm apart)%s "
+                              "(--basin-check)\n",
+                              r.unconstrained, r.basin_checked, 1e3 * r.basin_check_m, 1e3 * r.median_basin_m,
+                              r.drop_unconstrained ? ", not fused" : "");
   }
   if (r.widened > 0) {
     out += core::StringPrintf("Tracking   %d frames aligned only on the widened association gate "
@@ -506,6 +528,14 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--relocalisation-candidates", r.keyframes.candidates,
                  "after a loss that the last pose cannot bridge, try aligning from this many of the keyframes the "
                  "frame looks most alike, [0, 10] (0: no keyframes)")
+      ->capture_default_str();
+  app.add_option("--basin-check", r.basin_check_m,
+                 "on frames tracked on depth alone, rerun ICP from its result moved this far along its weakest "
+                 "direction: coming back less than half way marks the frame unconstrained (a plain wall), m, "
+                 "[0, 0.1] (0: off)")
+      ->capture_default_str();
+  app.add_option("--drop-unconstrained", r.drop_unconstrained,
+                 "report unconstrained frames (--basin-check) lost instead of fusing them: true or false")
       ->capture_default_str();
   app.add_option("--relocalisation-max-conflict", r.relocalisation_max_conflict,
                  "a relocalised pose is accepted only when at most this fraction of the live depth stands in "

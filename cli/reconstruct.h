@@ -5,6 +5,7 @@
 
 #include <array>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -107,6 +108,15 @@ struct ReconstructCommandResult {
   int64_t carved_points = 0;   // ... and those points
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
+  // Tracked (or recovered) frames aligned on depth alone (ScanReconstruction::tracked_depth_only).
+  int tracked_depth_only = 0;
+  // The basin check (ReconstructionOptions::basin_check_m): frames checked, those found
+  // unconstrained (fused, or lost with drop_unconstrained), and the median basin_m of the
+  // checked ones (NaN: none).
+  int basin_checked = 0, unconstrained = 0;
+  double basin_check_m = 0;  // the options' (ReconstructionOptions)
+  bool drop_unconstrained = false;
+  double median_basin_m = std::numeric_limits<double>::quiet_NaN();
   int widened = 0;  // tracked frames aligned only on the widened gate (FrameRecord)
   int relocalisations_rejected = 0;  // candidates rejected for model conflict (FrameRecord)
   int prealign_rejected_by_depth = 0;  // frames whose pre-aligned rotation the depth contradicted

@@ -412,6 +412,16 @@ Conditioning ConditioningOf(const Matrix6d& A, double max_condition) {
 
 }  // namespace
 
+Vector6d WeakestDirection(const Matrix6d& information) {
+  const Vector6d scale = LeverScale();
+  const Matrix6d scaled = scale.asDiagonal() * information * scale.asDiagonal();
+  if (!(scaled.diagonal().maxCoeff() > 0)) return Vector6d::Zero();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> solver(scaled);
+  // The eigenvector is a unit vector of the scaled problem; back in (rad, m) its rotation
+  // is divided by the lever (1 m: the same numbers).
+  return scale.asDiagonal() * solver.eigenvectors().col(0);  // eigenvalues ascending
+}
+
 std::string IcpOptions::Check() const {
   bool any = false;
   for (size_t l = 0; l < iterations.size(); ++l) {
@@ -476,6 +486,8 @@ std::string IcpStatusName(IcpStatus status) {
       return "implausible_jump";
     case IcpStatus::kModelConflict:
       return "model_conflict";
+    case IcpStatus::kUnconstrained:
+      return "unconstrained";
   }
   assert(false && "unknown IcpStatus");
   return "unknown";

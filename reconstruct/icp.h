@@ -130,6 +130,9 @@ enum class IcpStatus {
   // Set by the pipeline, not by AlignToModel: a relocalised pose whose live depth
   // contradicts the model's free space (ReconstructionOptions::relocalisation_max_conflict).
   kModelConflict,
+  // Set by the pipeline: a frame aligned on depth alone whose pose ICP does not come back to
+  // when moved along its weakest direction (ReconstructionOptions::basin_check_m).
+  kUnconstrained,
 };
 std::string IcpStatusName(IcpStatus status);  // "ok", "too_few_inliers", ...
 
@@ -168,5 +171,11 @@ struct IcpResult {
 // too few inliers, condition, residual, jump. Never throws; failures are in status.
 IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
                        const core::Rigid3d& initial_world_from_camera, const IcpOptions& options);
+
+// The direction of pose change ξ = [ω; v] (rad, m; IcpResult's convention: world_from_camera ·
+// Exp(ξ), camera frame) that `information` (IcpResult::information) constrains least, with
+// rotation measured at a 1 m lever as in the condition number: a unit vector in that metric
+// (|v|² + |ω|² · 1 m² = 1 m²). Zero when the information is zero.
+Eigen::Matrix<double, 6, 1> WeakestDirection(const Eigen::Matrix<double, 6, 6>& information);
 
 }  // namespace hw::reconstruct

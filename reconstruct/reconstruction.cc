@@ -91,6 +91,7 @@ std::string ReconstructionOptions::Check() const {
   if (!(relocalisation_widening >= 1) || !std::isfinite(relocalisation_widening)) {
     return Fail("relocalisation_widening", relocalisation_widening, ">= 1");
   }
+  if (!(basin_check_m >= 0 && basin_check_m <= 0.1)) return Fail("basin_check_m", basin_check_m, "in [0, 0.1] (0: off)");
   if (!(max_condition_ratio > 1) || !std::isfinite(max_condition_ratio)) {
     return Fail("max_condition_ratio", max_condition_ratio, "> 1 and finite");
   }
@@ -575,6 +576,21 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
         best_conflict = conflict;
         ok = true;
       }
+    }
+  }
+  // The basin check of a frame aligned on depth alone (basin_check_m).
+  const DepthLevel& icp_level = pyramid.levels[std::min<size_t>(options_.raycast_level, pyramid.levels.size() - 1)];
+  if (ok && options_.basin_check_m > 0 && (!(options_.icp.photometric_weight > 0) || icp_level.intensity.empty())) {
+    const ModelPyramid& view = best_attempt->model != nullptr ? *best_attempt->model : *model_;
+    const core::Rigid3d displaced =
+        best.world_from_camera * core::Rigid3d::Exp(options_.basin_check_m * WeakestDirection(best.information));
+    const IcpResult probe = AlignToModel(pyramid, view, displaced, best_attempt->icp);
+    const core::PoseError apart = core::ComparePoses(best.world_from_camera, probe.world_from_camera);
+    record.basin_m = std::hypot(apart.translation_m, apart.rotation_rad * 1.0 /* m: the lever */);
+    record.unconstrained = !(record.basin_m <= 0.5 * options_.basin_check_m);
+    if (record.unconstrained && options_.drop_unconstrained) {
+      ok = false;
+      best.status = IcpStatus::kUnconstrained;
     }
   }
   record.icp_status = best.status;

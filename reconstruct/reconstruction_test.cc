@@ -520,6 +520,14 @@ TEST(ReconstructionOptions, CheckNamesTheField) {
   o = ReconstructionOptions();
   o.relocalisation_max_conflict = 1;  // off
   EXPECT_EQ(o.Check(), "");
+  for (double basin : {-0.001, 0.2, std::numeric_limits<double>::quiet_NaN()}) {
+    o = ReconstructionOptions();
+    o.basin_check_m = basin;
+    EXPECT_NE(o.Check().find("basin_check_m"), std::string::npos) << basin;
+  }
+  o = ReconstructionOptions();
+  o.basin_check_m = 0;  // off
+  EXPECT_EQ(o.Check(), "");
   for (int interval : {0, 9}) {
     o = ReconstructionOptions();
     o.raycast_interval = interval;

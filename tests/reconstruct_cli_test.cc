@@ -99,6 +99,49 @@ TEST(ReconstructCli, WritesTrajectoryModelAndReport) {
   EXPECT_EQ(eval.exit_code, 0) << eval.output;
 }
 
+// Tracking on depth alone can slide along a plain wall without any sign in ICP's figures
+// (README, Tracking without colour): a scan tracked so is warned about, one with colour not.
+TEST(ReconstructCli, TrackingOnDepthAloneIsWarnedAbout) {
+  const std::string warning = "tracked frames aligned on depth alone";
+  const fs::path coloured = FreshPath("coloured");
+  const Result with_colour = Heatwave("reconstruct " + SmoothScan().string() + " --out " + coloured.string() +
+                                      " --voxel-size 0.01 --start-at-groundtruth");
+  ASSERT_EQ(with_colour.exit_code, 0) << with_colour.output;
+  EXPECT_EQ(with_colour.output.find(warning), std::string::npos) << with_colour.output;
+  EXPECT_EQ(with_colour.output.find("on depth alone"), std::string::npos) << with_colour.output;
+  EXPECT_NE(Read(coloured / "reconstruct.json").find("\"tracked_depth_only\": 0,"), std::string::npos);
+  // Frames with the photometric term are not basin-checked.
+  EXPECT_NE(Read(coloured / "reconstruct.json").find("\"basin_checked\": 0,"), std::string::npos);
+  EXPECT_EQ(with_colour.output.find("basin check"), std::string::npos) << with_colour.output;
+
+  for (const char* depth_only : {" --no-colour", " --photometric-weight 0"}) {
+    const fs::path out = FreshPath("depth-only");
+    const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() +
+                              " --voxel-size 0.01 --start-at-groundtruth" + depth_only);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string json = Read(out / "reconstruct.json");
+    // Every tracked or recovered frame is counted: "N of N tracked frames".
+    const auto count = [&](const std::string& key) {
+      const size_t at = json.find("\"" + key + "\": ");
+      EXPECT_NE(at, std::string::npos) << key;
+      return at == std::string::npos ? -1 : std::stoi(json.substr(at + key.size() + 4));
+    };
+    const int tracked = count("tracked") + count("recovered");
+    EXPECT_GT(tracked, 10) << depth_only;
+    // Each was basin-checked (ReconstructionOptions::basin_check_m); an unconstrained one is
+    // lost, not fused (this scan's ICP runs from the truth at 160×120: few or none).
+    EXPECT_EQ(count("basin_checked"), count("tracked") + count("recovered") + count("unconstrained")) << depth_only;
+    EXPECT_NE(json.find("\"basin_m\": "), std::string::npos);
+    EXPECT_NE(r.output.find("Tracking   basin check: "), std::string::npos) << r.output;
+    EXPECT_NE(json.find("\"tracked_depth_only\": " + std::to_string(tracked) + ","), std::string::npos) << depth_only;
+    EXPECT_NE(json.find(std::to_string(tracked) + " of " + std::to_string(tracked) + " " + warning), std::string::npos)
+        << depth_only << "\n" << r.output;
+    // And the summary says it on a line of its own, whatever other warnings come first.
+    EXPECT_NE(r.output.find("Tracking   " + std::to_string(tracked) + " of " + std::to_string(tracked) +
+                            " frames aligned on depth alone"), std::string::npos) << depth_only << "\n" << r.output;
+  }
+}
+
 TEST(ReconstructCli, GivenPosesAreFusedNotTracked) {
   const fs::path out = FreshPath("out");
   const Result r = Heatwave("reconstruct " + SmoothScan().string() + " --out " + out.string() + kOptions +
@@ -369,7 +412,7 @@ TEST(ReconstructCli, TumSequenceWithRigOption) {
 TEST(ReconstructCli, BadOptionsAreExit2) {
   // Bool values: true, false, 1 or 0, nothing else.
   for (const char* bad : {" --integrate-between-raycasts 2", " --integrate-between-raycasts -1",
-                          " --photometric-offset yes", " --photometric-offset 2"}) {
+                          " --photometric-offset yes", " --photometric-offset 2", " --drop-unconstrained maybe"}) {
     const Result b = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() + bad);
     EXPECT_EQ(b.exit_code, 2) << bad << ": " << b.output;
   }
@@ -393,6 +436,11 @@ TEST(ReconstructCli, BadOptionsAreExit2) {
                                  " --stamp-window 0");
   EXPECT_EQ(window.exit_code, 2) << window.output;
   EXPECT_NE(window.output.find("stamps.window_s"), std::string::npos) << window.output;
+  for (const char* basin : {" --basin-check -0.01", " --basin-check 0.5"}) {
+    const Result b = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() + basin);
+    EXPECT_EQ(b.exit_code, 2) << basin << ": " << b.output;
+    EXPECT_NE(b.output.find("basin_check_m"), std::string::npos) << b.output;
+  }
   const Result gate = Heatwave("reconstruct " + SmoothScan().string() + " --out " + FreshPath().string() +
                                " --icp-noise-gate -1");
   EXPECT_EQ(gate.exit_code, 2) << gate.output;
