@@ -422,6 +422,15 @@ Vector6d WeakestDirection(const Matrix6d& information) {
   return scale.asDiagonal() * solver.eigenvectors().col(0);  // eigenvalues ascending
 }
 
+double IcpBasinM(const DepthPyramid& live, const ModelPyramid& model, const IcpResult& aligned, double step_m,
+                 const IcpOptions& options) {
+  assert(step_m > 0);
+  const core::Rigid3d moved = aligned.world_from_camera * core::Rigid3d::Exp(step_m * WeakestDirection(aligned.information));
+  const IcpResult probe = AlignToModel(live, model, moved, options);
+  const core::PoseError apart = core::ComparePoses(aligned.world_from_camera, probe.world_from_camera);
+  return std::hypot(apart.translation_m, apart.rotation_rad * kConditionLeverM);
+}
+
 std::string IcpOptions::Check() const {
   bool any = false;
   for (size_t l = 0; l < iterations.size(); ++l) {

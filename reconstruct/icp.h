@@ -178,4 +178,12 @@ IcpResult AlignToModel(const DepthPyramid& live, const ModelPyramid& model,
 // (|v|² + |ω|² · 1 m² = 1 m²). Zero when the information is zero.
 Eigen::Matrix<double, 6, 1> WeakestDirection(const Eigen::Matrix<double, 6, 6>& information);
 
+// How well the depth fixes `aligned` (AlignToModel's result for `live` against `model`): ICP
+// rerun with `options` from that result moved step_m along its WeakestDirection; returns how
+// far apart the two results end, m (translation and rotation at a 1 m lever, combined). Near
+// 0 where the data pull the pose back; near step_m where the minimum is flat along that
+// direction (a plain wall, a corridor). step_m > 0.
+double IcpBasinM(const DepthPyramid& live, const ModelPyramid& model, const IcpResult& aligned, double step_m,
+                 const IcpOptions& options);
+
 }  // namespace hw::reconstruct

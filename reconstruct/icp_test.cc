@@ -467,10 +467,7 @@ TEST(WeakestDirection, IsTheCorridorsAxisAndICPComesBackOnlyWhereTheDepthFixesTh
     const DepthPyramid live = LiveOf(scene, truth, 0.001, 5);
     const ModelPyramid model = ModelOf(scene, truth);
     const IcpResult first = AlignToModel(live, model, truth, IcpOptions());
-    const core::Rigid3d moved = first.world_from_camera * core::Rigid3d::Exp(0.01 * WeakestDirection(first.information));
-    const IcpResult second = AlignToModel(live, model, moved, IcpOptions());
-    const core::PoseError apart = core::ComparePoses(first.world_from_camera, second.world_from_camera);
-    return std::hypot(apart.translation_m, apart.rotation_rad);
+    return IcpBasinM(live, model, first, 0.01, IcpOptions());
   };
   // The corridor: 1 cm along its axis, and ICP leaves it there (measured 1.0 cm; more than half:
   // unconstrained).

@@ -582,11 +582,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
   const DepthLevel& icp_level = pyramid.levels[std::min<size_t>(options_.raycast_level, pyramid.levels.size() - 1)];
   if (ok && options_.basin_check_m > 0 && (!(options_.icp.photometric_weight > 0) || icp_level.intensity.empty())) {
     const ModelPyramid& view = best_attempt->model != nullptr ? *best_attempt->model : *model_;
-    const core::Rigid3d displaced =
-        best.world_from_camera * core::Rigid3d::Exp(options_.basin_check_m * WeakestDirection(best.information));
-    const IcpResult probe = AlignToModel(pyramid, view, displaced, best_attempt->icp);
-    const core::PoseError apart = core::ComparePoses(best.world_from_camera, probe.world_from_camera);
-    record.basin_m = std::hypot(apart.translation_m, apart.rotation_rad * 1.0 /* m: the lever */);
+    record.basin_m = IcpBasinM(pyramid, view, best, options_.basin_check_m, best_attempt->icp);
     record.unconstrained = !(record.basin_m <= 0.5 * options_.basin_check_m);
     if (record.unconstrained && options_.drop_unconstrained) {
       ok = false;
