@@ -578,9 +578,13 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
       }
     }
   }
-  // The basin check of a frame aligned on depth alone (basin_check_m).
+  // The basin check of a frame aligned on depth alone (basin_check_m): no photometric term,
+  // for want of its weight, of the model's colour (UpdateModel casts it only with both) or of
+  // the frame's grey.
   const DepthLevel& icp_level = pyramid.levels[std::min<size_t>(options_.raycast_level, pyramid.levels.size() - 1)];
-  if (ok && options_.basin_check_m > 0 && (!(options_.icp.photometric_weight > 0) || icp_level.intensity.empty())) {
+  const bool depth_alone = !(options_.icp.photometric_weight > 0) || !options_.integrate_colour || !rig_.rgb ||
+                           icp_level.intensity.empty();
+  if (ok && options_.basin_check_m > 0 && depth_alone) {
     const ModelPyramid& view = best_attempt->model != nullptr ? *best_attempt->model : *model_;
     record.basin_m = IcpBasinM(pyramid, view, best, options_.basin_check_m, best_attempt->icp);
     record.unconstrained = !(record.basin_m <= 0.5 * options_.basin_check_m);
