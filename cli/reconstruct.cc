@@ -210,7 +210,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.integrate_ms += f.integrate_ms;
     r.raycast_ms += f.raycast_ms;
     r.raycasts += f.raycast_ms > 0;
-  }  r.basin_checked = static_cast<int>(basins.size());
+  }
+  r.basin_checked = static_cast<int>(basins.size());
   r.basin_check_m = options.reconstruction.basin_check_m;
   r.drop_unconstrained = options.reconstruction.drop_unconstrained;
   if (!basins.empty()) r.median_basin_m = core::Median(basins);
