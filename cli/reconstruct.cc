@@ -171,7 +171,6 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
   r.load_seconds = run.load_seconds;
   r.process_seconds = run.process_seconds;
   r.missing = run.missing_frames;
-  r.tracked_depth_only = run.tracked_depth_only;
   r.unposed = run.unposed_frames;
   r.keyframes = reconstruction.keyframes().size();
   r.depth_frames = static_cast<int>(reconstruction.frames().size()) + run.missing_frames + run.unposed_frames;
@@ -196,6 +195,8 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.recovered_from_keyframe += f.status == FrameStatus::kRecovered && f.keyframe >= 0;
     if (std::isfinite(f.basin_m)) basins.push_back(f.basin_m);
     r.unconstrained += f.unconstrained;
+    r.tracked_depth_only +=
+        f.depth_alone && (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.held += f.held_directions > 0 &&
               (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered);
     r.widened += f.status == FrameStatus::kTracked && f.widened_gate;

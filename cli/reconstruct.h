@@ -108,7 +108,7 @@ struct ReconstructCommandResult {
   int64_t carved_points = 0;   // ... and those points
   int posed = 0, unposed = 0;  // with poses_path: fused at a given pose; not covered by them
   int held = 0;  // tracked frames with directions held at the prediction (FrameRecord)
-  // Tracked (or recovered) frames aligned on depth alone (ScanReconstruction::tracked_depth_only).
+  // Tracked (or recovered) frames aligned on depth alone (FrameRecord::depth_alone).
   int tracked_depth_only = 0;
   // The basin check (ReconstructionOptions::basin_check_m): frames checked, those found
   // unconstrained (fused, or lost with drop_unconstrained), and the median basin_m of the

@@ -128,6 +128,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
         .Number("residual_rms_m", f.residual_rms_m)
         .Number("condition", f.condition)
         .Int("held_directions", f.held_directions)
+        .Bool("depth_alone", f.depth_alone)
         .Number("basin_m", f.basin_m)
         .Bool("unconstrained", f.unconstrained)
         .String("icp_start", f.keyframe >= 0 ? "keyframe" : f.from_last_pose ? "last_pose" : "prediction")

@@ -193,6 +193,12 @@ struct ReconstructionOptions {
   std::string Check() const;
 };
 
+namespace internal {
+// The stage options with the pipeline-wide depth range and thread count applied (what a
+// Reconstruction runs with).
+ReconstructionOptions EffectiveOptions(ReconstructionOptions options);
+}  // namespace internal
+
 // One depth frame given to the pipeline.
 struct FrameInput {
   double timestamp_s = 0;  // depth clock, s; strictly after the previous frame's
@@ -248,6 +254,9 @@ struct FrameRecord {
   double residual_rms_m = 0, condition = 0;
   // Directions of the pose the frame left at the constant-velocity prediction (IcpResult).
   int held_directions = 0;
+  // ICP had no photometric term (no colour frame, no model colour, or photometric_weight 0):
+  // the frame was aligned on depth alone (tracked, recovered and lost frames).
+  bool depth_alone = false;
   // The basin check (ReconstructionOptions::basin_check_m) of a frame tracked on depth
   // alone: how far apart ICP's result and its rerun from the displaced start ended, m
   // (translation and rotation at a 1 m lever, combined); NaN when not checked.
@@ -435,9 +444,6 @@ struct ScanReconstructionOptions {
 struct ScanReconstruction {
   std::vector<int> depth_frame_index;  // per FrameRecord: the scan's depth frame index
   int missing_frames = 0;              // depth frames whose file is missing (skipped)
-  // Frames tracked (or recovered) by ICP, and those of them aligned without a photometric
-  // term (no colour frame within reach, or IcpOptions::photometric_weight 0): depth alone.
-  int tracked_frames = 0, tracked_depth_only = 0;
   int unposed_frames = 0;              // with options.poses: frames they do not cover (skipped)
   // Thermal frames (with a ThermalFusion): given to it, missing files (skipped), and those
   // after the last depth frame used (never posed, not given).

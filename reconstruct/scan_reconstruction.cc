@@ -169,10 +169,6 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     }
     const FrameRecord& record = *record_ptr;
     out.process_seconds += internal::MsSince(process_start) / 1000;
-    if (record.status == FrameStatus::kTracked || record.status == FrameStatus::kRecovered) {
-      ++out.tracked_frames;
-      out.tracked_depth_only += p.frame.rgb.empty() || !(reconstruction.options().icp.photometric_weight > 0);
-    }
     out.depth_frame_index.push_back(i);
     if (record.status == FrameStatus::kLost) {
       out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking lost (%s), not fused",
@@ -249,12 +245,18 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
   // nothing in ICP's residual or conditioning shows the slide (README, Tracking without
   // colour): say so when most of the tracking had nothing else — first, as it concerns the
   // whole trajectory (a summary lists the first few warnings).
-  if (out.tracked_depth_only > 0 && 2 * out.tracked_depth_only >= out.tracked_frames) {
+  int tracked = 0, depth_alone = 0;
+  for (const FrameRecord& f : reconstruction.frames()) {
+    if (f.status != FrameStatus::kTracked && f.status != FrameStatus::kRecovered) continue;
+    ++tracked;
+    depth_alone += f.depth_alone;
+  }
+  if (depth_alone > 0 && 2 * depth_alone >= tracked) {
     out.warnings.insert(out.warnings.begin(), core::StringPrintf(
-        "%d of %d tracked frames aligned on depth alone (no colour frame, or --photometric-weight 0): in front of a "
-        "plain wall, or a wall and a floor, ICP can slide along it with nothing in its residual to show it (README, "
-        "Tracking without colour); track with colour, or check the trajectory",
-        out.tracked_depth_only, out.tracked_frames));
+        "%d of %d tracked frames aligned on depth alone (no colour frame, --no-colour or --photometric-weight 0): "
+        "in front of a plain wall, or a wall and a floor, ICP can slide along it with nothing in its residual to "
+        "show it (README, Tracking without colour); track with colour, or check the trajectory",
+        depth_alone, tracked));
   }
   if (reconstruction.trajectory().empty() && options.poses && out.unposed_frames > 0 &&
       out.unposed_frames + out.missing_frames == last - first) {
