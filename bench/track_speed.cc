@@ -12,6 +12,13 @@
 // parts (fastest of R each). Also prints ICP's iterations and the estimate's
 // error against the truth (mm, deg): a speed change must not change them beyond noise.
 // SCAN needs groundtruth.txt and an rgb stream (e.g. heatwave synth --scene equipment).
+//
+// Also the basin of each frame's minimum: ICP is run a second time from the frame's true pose,
+// and "apart mm" is how far that result ends from the one started at the previous frame's
+// pose (the two starts are a frame's motion apart). Near 0 where the depth (and colour) fix
+// the pose; about the starts' distance where the minimum is flat along a wall (README,
+// Tracking without colour). --rig FILE reads another rig.yaml (e.g. the sensor's true depth
+// field), --photometric-weight W sets ICP's colour term (0: depth alone).
 
 #include <algorithm>
 #include <chrono>
@@ -41,11 +48,14 @@ using hw::bench::Summary;
 
 int Run(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_track_speed SCAN [--frames N] [--threads T] [--repeat R]\n");
+    std::fprintf(stderr, "usage: bench_track_speed SCAN [--frames N] [--threads T] [--repeat R] [--rig FILE] "
+                         "[--photometric-weight W]\n");
     return 1;
   }
   const std::string folder = argv[1];
   int frames = 20, threads = 2, repeat = 3;
+  hw::core::ScanOptions scan_options;
+  double photometric_weight = -1;  // < 0: the pipeline's default
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) {
@@ -55,12 +65,14 @@ int Run(int argc, char** argv) {
     if (a == "--frames") frames = std::atoi(argv[++i]);
     else if (a == "--threads") threads = std::atoi(argv[++i]);
     else if (a == "--repeat") repeat = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--rig") scan_options.rig_path = argv[++i];
+    else if (a == "--photometric-weight") photometric_weight = std::atof(argv[++i]);
     else {
       std::fprintf(stderr, "bench_track_speed: unknown option %s\n", a.c_str());
       return 1;
     }
   }
-  const hw::core::Scan scan = hw::core::Scan::Open(folder);
+  const hw::core::Scan scan = hw::core::Scan::Open(folder, scan_options);
   const hw::core::Rig& rig = scan.rig();
   if (!scan.groundtruth() || !rig.rgb) {
     std::fprintf(stderr, "bench_track_speed: %s needs groundtruth.txt and an rgb stream\n",
@@ -76,6 +88,7 @@ int Run(int argc, char** argv) {
   for (int l = 0; l < o.raycast_level; ++l) o.icp.iterations[l] = 0;
   o.depth.first_map_level = o.raycast_level;
   o.raycast.with_colour = true;
+  if (photometric_weight >= 0) o.icp.photometric_weight = photometric_weight;
 
   const rc::Undistorter depth_undistorter(rig.depth);
   const rc::Undistorter rgb_undistorter(*rig.rgb);
@@ -84,9 +97,9 @@ int Run(int argc, char** argv) {
   hw::core::Rigid3d previous_pose;
   std::printf("%s: %d threads, best of %d\n", folder.c_str(), threads, repeat);
   std::printf("wall ms and (cpu) process CPU ms summed over its threads\n");
-  std::printf("%5s %10s %10s %10s %10s %6s %9s %9s\n", "frame", "prepare", "(cpu)", "track", "(cpu)",
-              "iters", "err mm", "err deg");
-  std::vector<double> prepare_ms, track_ms, prepare_cpu, track_cpu, err_mm;
+  std::printf("%5s %10s %10s %10s %10s %6s %9s %9s %9s\n", "frame", "prepare", "(cpu)", "track", "(cpu)",
+              "iters", "err mm", "err deg", "apart mm");
+  std::vector<double> prepare_ms, track_ms, prepare_cpu, track_cpu, err_mm, apart_mm;
   std::vector<double> prepare_part_ms[4];  // undistort depth, undistort colour, pyramid, register colour
   const int n = std::min(frames, scan.NumFrames(hw::core::Stream::kDepth));
   for (int i = 0; i < n; ++i) {
@@ -146,10 +159,13 @@ int Run(int argc, char** argv) {
       track_cpu.push_back(best_track_cpu);
       const hw::core::PoseError e = hw::core::ComparePoses(*pose, result.world_from_camera);
       err_mm.push_back(e.translation_m * 1e3);
-      std::printf("%5d %10.3f %10.3f %10.3f %10.3f %6d %9.3f %9.4f %s\n", i, best_prepare,
+      const rc::IcpResult from_truth = rc::AlignToModel(pyramid, *model, *pose, o.icp);
+      const hw::core::PoseError apart = hw::core::ComparePoses(from_truth.world_from_camera, result.world_from_camera);
+      apart_mm.push_back(apart.translation_m * 1e3);
+      std::printf("%5d %10.3f %10.3f %10.3f %10.3f %6d %9.3f %9.4f %9.3f %s\n", i, best_prepare,
                   best_prepare_cpu, best_track, best_track_cpu,
                   result.iterations, e.translation_m * 1e3, e.rotation_rad * 180 / 3.14159265358979,
-                  rc::IcpStatusName(result.status).c_str());
+                  apart.translation_m * 1e3, rc::IcpStatusName(result.status).c_str());
     } else {
       std::printf("%5d %10.3f %10.3f\n", i, best_prepare, best_prepare_cpu);
     }
@@ -190,6 +206,7 @@ int Run(int argc, char** argv) {
   Summary("prep cpu", prepare_cpu);
   Summary("track cpu", track_cpu);
   Summary("err", err_mm, " mm");
+  Summary("apart", apart_mm, " mm");
   return 0;
 }
 
