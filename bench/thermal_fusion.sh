@@ -24,6 +24,9 @@
 #                splatting inline instead of beside the depth pipeline (e.g. rig-b0)
 #   NAME-r0      any of the above with --thermal-reflections false: the whole reflection taken
 #                as the uniform reflected temperature, no mirror rays traced (e.g. gt-poses-r0)
+#   NAME-o       any of the above with the depth sensor's true error field (the oracle rig
+#                that build/bench/bench_depth_oracle_rig writes beside the scan, once): the
+#                temperature without the depth calibration's residual error (e.g. truth-o)
 # With --baseline BIN (an earlier build's heatwave), each config also runs with BIN right
 # before this build's run, as NAME@base: the two builds side by side on the same input, in
 # one run (a -b0 config runs only with this build).
@@ -32,7 +35,9 @@
 # vertices and scores it against truth/scene.ply (reconstruct/thermal_eval.h): RMSE, p95 and
 # bias over vertices within 1 cm of the true surface away from model boundaries, on the
 # uniform subset (away from hot-spot borders and low-emissivity patches), after removing the
-# best camera gain and offset, and on low-emissivity patches. The table lists them per scan,
+# best camera gain and offset, on the resolved subset (the uniform one less what a thermal
+# pixel mixes across a step: the truth uniform within 2 pixel footprints) after the same map,
+# and on low-emissivity patches. The table lists them per scan,
 # configuration and method, with frames/s of the whole pipeline beside the reconstruction
 # alone; OUT_DIR/summary.tsv holds the same rows.
 #
@@ -56,7 +61,7 @@ while [[ $# -gt 0 ]]; do
     --scans) scans=$2; shift 2 ;;
     --configs) configs=$2; shift 2 ;;
     --baseline) baseline=$2; shift 2 ;;
-    -h|--help) sed -n '2,41p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,46p' "$0"; exit 0 ;;
     *) echo "unknown option: $1" >&2; exit 2 ;;
   esac
 done
@@ -83,7 +88,7 @@ synth_args() {
 }
 
 summary=$out/summary.tsv
-printf "scan\tconfig\tmethod\tfps\tthermal_ms\trmse\tp95\tbias\trmse_uniform\tp95_uniform\trmse_affine\tp95_affine\trmse_low_e\tbias_low_e\tcompared\tworst_third\tmiddle\tbest_third\n" > "$summary"
+printf "scan\tconfig\tmethod\tfps\tthermal_ms\trmse\tp95\tbias\trmse_uniform\tp95_uniform\trmse_affine\tp95_affine\trmse_resolved\tp95_resolved\trmse_low_e\tbias_low_e\tcompared\tworst_third\tmiddle\tbest_third\n" > "$summary"
 for scan in $scans; do
   if [[ ! -f $data/$scan/thermal.txt ]]; then
     echo "== rendering $scan (minutes)" >&2
@@ -98,6 +103,16 @@ for scan in $scans; do
     if [[ $base =~ ^(.*)-r0$ ]]; then
       base=${BASH_REMATCH[1]}
       args+=(--thermal-reflections false)
+    fi
+    if [[ $base =~ ^(.*)-o$ ]]; then
+      base=${BASH_REMATCH[1]}
+      oracle=$data/$scan/oracle-rig.yaml
+      if [[ ! -f $oracle ]]; then
+        [[ -x $build/bench/bench_depth_oracle_rig ]] ||
+          { echo "build bench_depth_oracle_rig first: cmake --build $build --target bench_depth_oracle_rig" >&2; exit 2; }
+        "$build/bench/bench_depth_oracle_rig" "$data/$scan/rig.yaml" "$oracle"
+      fi
+      args+=(--rig "$oracle")
     fi
     if [[ $base =~ ^(.*)-b0$ ]]; then
       base=${BASH_REMATCH[1]}
@@ -133,7 +148,7 @@ fps = d["timings"]["frames_per_s"]
 frames = max(1, len(d["frames"]))
 t = d.get("thermal")
 if t is None:
-    print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 13)
+    print(f"{sys.argv[2]}\t{sys.argv[3]}\t-\t{fps:.2f}\t0" + "\t-" * 15)
     sys.exit()
 # Frames/s of the whole pipeline: the caller's time in depth processing, thermal fusion (the
 # stage beside it, ThermalFusionOptions::background, counts where the caller waits for it)
@@ -145,7 +160,8 @@ for m in t.get("truth_evaluation", []):
     f = lambda k: "nan" if m[k] is None else f"{m[k]:.3f}"
     print("\t".join([sys.argv[2], sys.argv[3], m["method"], f"{fps_all:.2f}", f"{ms:.0f}",
                      f("rmse_k"), f("p95_abs_k"), f("mean_k"), f("rmse_uniform_k"), f("p95_abs_uniform_k"),
-                     f("rmse_affine_k"), f("p95_abs_affine_k"), f("rmse_low_emissivity_k"),
+                     f("rmse_affine_k"), f("p95_abs_affine_k"), f("rmse_resolved_affine_k"),
+                     f("p95_abs_resolved_affine_k"), f("rmse_low_emissivity_k"),
                      f("mean_low_emissivity_k"), str(m["compared"])] +
                     # RMSE after gain/offset per third of the views' mean confidence (worst first)
                     [("nan" if c["rmse_affine_k"] is None else f'{c["rmse_affine_k"]:.3f}')

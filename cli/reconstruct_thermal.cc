@@ -177,7 +177,8 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
   std::optional<reconstruct::TemperatureComparison> comparison;
   // The plain mean first: its confidence per vertex, the mean of all its region's views', is
   // the view quality every method is also scored by; its estimate is kept for its turn.
-  std::vector<double> quality, mean_estimate;
+  // Its footprints (over all views, whatever the method) set the resolved subset's balls.
+  std::vector<double> quality, mean_estimate, footprint_m;
   {
     const reconstruct::PointTemperatures mean = fusion.Sample(model_vertices_in_model, ThermalMethod::kMean);
     quality.reserve(mean.confidence.size());
@@ -185,6 +186,7 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
       quality.push_back(mean.views[i] > 0 ? static_cast<double>(mean.confidence[i]) : std::nan(""));
     }
     mean_estimate.assign(mean.surface_c.begin(), mean.surface_c.end());
+    footprint_m.assign(mean.footprint_m.begin(), mean.footprint_m.end());
   }
   for (ThermalMethod method : reconstruct::kThermalMethods) {
     std::vector<double> estimate;
@@ -196,7 +198,7 @@ void EvaluateThermalMethods(const reconstruct::ThermalFusion& fusion,
     }
     if (!comparison) {
       comparison = reconstruct::CompareTemperatures(model_vertices_in_truth, faces, estimate, truth,
-                                                    reconstruct::TemperatureErrorOptions{});
+                                                    reconstruct::TemperatureErrorOptions{}, footprint_m);
     }
     const reconstruct::TemperatureErrorStats stats = reconstruct::TemperatureErrors(*comparison, estimate);
     result.evaluation.emplace_back(method, stats);
@@ -333,6 +335,9 @@ std::string ThermalJson(const reconstruct::ThermalFusion& fusion, const ThermalC
           .Number("affine_offset_k", e.affine_offset_k)
           .Number("rmse_affine_k", e.rmse_affine_k)
           .Number("p95_abs_affine_k", e.p95_abs_affine_k)
+          .Int("compared_resolved", e.compared_resolved)
+          .Number("rmse_resolved_affine_k", e.rmse_resolved_affine_k)
+          .Number("p95_abs_resolved_affine_k", e.p95_abs_resolved_affine_k)
           .Int("compared_low_emissivity", e.compared_low_emissivity)
           .Number("rmse_low_emissivity_k", e.rmse_low_emissivity_k)
           .Number("mean_low_emissivity_k", e.mean_low_emissivity_k)
@@ -428,6 +433,17 @@ std::string FormatThermalSummary(const ThermalCommandResult& r) {
                                 reconstruct::ThermalMethodName(method).c_str(), e.rmse_k, e.p95_abs_k, e.mean_k,
                                 e.rmse_uniform_k, e.p95_abs_uniform_k, e.mean_uniform_k, e.rmse_affine_k,
                                 e.p95_abs_affine_k, e.rmse_low_emissivity_k, e.mean_low_emissivity_k);
+    }
+    if (r.evaluation.front().second.compared_resolved > 0) {
+      // The same vertices for every method (the plain mean's footprints).
+      out += core::StringPrintf("           resolved subset (%d vertices: uniform within %g thermal pixels), "
+                                "gain/offset removed, RMSE:",
+                                r.evaluation.front().second.compared_resolved,
+                                reconstruct::TemperatureErrorOptions{}.resolved_footprints);
+      for (const auto& [method, e] : r.evaluation) {
+        out += core::StringPrintf(" %s %.3f", reconstruct::ThermalMethodName(method).c_str(), e.rmse_resolved_affine_k);
+      }
+      out += "\n";
     }
     if (!r.evaluation_by_view_quality.empty()) {
       // The classes are the same vertices for every method (the plain mean's confidence).

@@ -34,6 +34,9 @@ std::string TemperatureErrorOptions::Check() const {
   if (!(uniform_range_k > 0) || !std::isfinite(uniform_range_k)) {
     return Fail("uniform_range_k", uniform_range_k, "finite and > 0 K");
   }
+  if (!(resolved_footprints >= 0) || !(resolved_footprints <= 10)) {
+    return Fail("resolved_footprints", resolved_footprints, "in [0, 10] footprints");
+  }
   if (num_threads < 0) return Fail("num_threads", num_threads, ">= 0");
   return "";
 }
@@ -275,6 +278,18 @@ TemperatureErrorStats TemperatureErrors(const TemperatureComparison& comparison,
     const double limit = std::max(5 * sigma, 1.0);
     for (size_t i = 0; i < pairs.size(); ++i) inlier[i] = std::abs(residual[i] - median) <= limit;
   }
+  if (std::isfinite(gain) && !comparison.resolved.empty()) {
+    assert(comparison.resolved.size() == estimate_c.size());
+    std::vector<double> residuals;
+    for (size_t i = 0; i < estimate_c.size(); ++i) {
+      if (!comparison.resolved[i] || !std::isfinite(estimate_c[i])) continue;
+      residuals.push_back((estimate_c[i] - offset) / gain - comparison.truth_c[i]);
+    }
+    const ErrorSummary resolved = Summarize(residuals);
+    stats.compared_resolved = static_cast<int>(residuals.size());
+    stats.rmse_resolved_affine_k = resolved.rmse;
+    stats.p95_abs_resolved_affine_k = resolved.p95_abs;
+  }
   if (std::isfinite(gain)) {
     stats.affine_gain = gain;
     stats.affine_offset_k = offset;
@@ -292,9 +307,11 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
                                           const std::vector<Eigen::Vector3i>& model_faces,
                                           const std::vector<double>& estimate_c,
                                           const TemperatureTruth& truth,
-                                          const TemperatureErrorOptions& options) {
+                                          const TemperatureErrorOptions& options,
+                                          const std::vector<double>& footprint_m) {
   assert(options.Check().empty());
   assert(estimate_c.size() == model_positions.size());
+  assert(footprint_m.empty() || footprint_m.size() == model_positions.size());
   assert(truth.temperature_c.size() == truth.vertices.size());
   const size_t n = model_positions.size();
   TemperatureComparison out;
@@ -311,8 +328,37 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
   const TriangleGrid grid(truth.vertices, truth.faces,
                           std::max(options.max_distance_m, options.uniform_radius_m));
   const double r = options.uniform_radius_m;
+  // The resolved subset's balls: as wide as the footprints ask, up to kMaxResolvedRadiusM
+  // (a vertex whose pixels reach farther resolves nothing an audit measures: not resolved).
+  const bool resolve = !footprint_m.empty();
+  double resolved_cell_m = r;
+  if (resolve) {
+    out.resolved.assign(n, 0);
+    for (const double f : footprint_m) {
+      if (std::isfinite(f)) resolved_cell_m = std::max(resolved_cell_m, std::min(options.resolved_footprints * f, kMaxResolvedRadiusM));
+    }
+  }
+  std::optional<TriangleGrid> resolved_grid;
+  if (resolve && resolved_cell_m > r) resolved_grid.emplace(truth.vertices, truth.faces, resolved_cell_m);
+  // The range of the truth's field over the ball (q, radius) of `on` (a grid whose cells
+  // reach it), widening [lo, hi]; false as soon as it exceeds uniform_range_k. `visited`
+  // holds the last vertex that looked at a face (a face is binned in several cells).
+  const auto in_range = [&](const TriangleGrid& on, const Eigen::Vector3d& q, double radius, int i,
+                            std::vector<int>& visited, double& lo, double& hi) {
+    return on.VisitCandidates(q, radius, [&](int f) {
+      if (visited[f] == i) return true;
+      visited[f] = i;
+      const Eigen::Vector3i& g = truth.faces[f];
+      const Eigen::Vector3d &a = truth.vertices[g[0]], &b = truth.vertices[g[1]], &c = truth.vertices[g[2]];
+      if ((ClosestPointOnTriangle(q, a, b, c) - q).norm() > radius) return true;
+      const Eigen::Vector3d tf(truth.temperature_c[g[0]], truth.temperature_c[g[1]], truth.temperature_c[g[2]]);
+      WidenByFieldInBall(a, b, c, tf, q, radius, lo, hi);
+      return hi - lo <= options.uniform_range_k;
+    });
+  };
   ForEachBand(static_cast<int>(n), options.num_threads, [&](int begin, int end) {
     std::vector<int> visited(truth.faces.size(), -1);  // the last model vertex that looked at a face
+    std::vector<int> visited_resolved(resolved_grid ? truth.faces.size() : 0, -1);
     for (int i = begin; i < end; ++i) {
       const Eigen::Vector3d p = model_positions[i].cast<double>();
       const auto closest = grid.FindClosest(p, options.max_distance_m);
@@ -336,17 +382,15 @@ TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& mo
       // The range over the ball, stopping as soon as it exceeds uniform_range_k.
       const Eigen::Vector3d& q = closest->on_face.point;
       double lo = out.truth_c[i], hi = out.truth_c[i];
-      out.uniform[i] = grid.VisitCandidates(q, r, [&](int f) {
-        if (visited[f] == i) return true;  // binned in several cells
-        visited[f] = i;
-        const Eigen::Vector3i& g = truth.faces[f];
-        const Eigen::Vector3d &a = truth.vertices[g[0]], &b = truth.vertices[g[1]], &c = truth.vertices[g[2]];
-        if ((ClosestPointOnTriangle(q, a, b, c) - q).norm() > r) return true;
-        const Eigen::Vector3d tf(truth.temperature_c[g[0]], truth.temperature_c[g[1]],
-                                 truth.temperature_c[g[2]]);
-        WidenByFieldInBall(a, b, c, tf, q, r, lo, hi);
-        return hi - lo <= options.uniform_range_k;
-      });
+      out.uniform[i] = in_range(grid, q, r, i, visited, lo, hi);
+      if (!resolve || !out.uniform[i] || !std::isfinite(footprint_m[i])) continue;
+      const double radius = std::max(r, options.resolved_footprints * footprint_m[i]);
+      if (radius <= r) {
+        out.resolved[i] = 1;
+      } else if (radius <= kMaxResolvedRadiusM) {
+        // The larger ball holds the smaller one: its range starts from the uniform one's.
+        out.resolved[i] = in_range(*resolved_grid, q, radius, i, visited_resolved, lo, hi);
+      }
     }
   });
   out.stats = TemperatureErrors(out, estimate_c);

@@ -60,6 +60,17 @@ struct TemperatureErrorOptions {
   // K, > 0. 0.5 K: a quarter of a radiometric core's ±2 K accuracy and 10× its NETD, so
   // variation below it does not show in the error budget.
   double uniform_range_k = 0.5;
+  // "Resolved" subset: the uniform subset less the vertices where the truth varies by more
+  // than uniform_range_k within this many thermal pixel footprints (the vertex's
+  // footprint_m given to CompareTemperatures) of the closest truth point, when that reaches
+  // beyond uniform_radius_m. A fixed radius is two pixels at 1.5 m but under one at 4 m
+  // (a 320×240, 56° camera's pixel is 13 mm there), where a slot or a corner a few cm from
+  // another surface is mixed into every pixel that sees it: an error of the camera's
+  // resolution, not of the fusion. Two footprints is the reach of what a pixel centred up
+  // to half a pixel from the vertex integrates — its box (±0.5 px) and the optics' PSF
+  // (±~1 px for an f/1 LWIR lens: Airy radius 1.22 λ N ≈ 12 µm at 10 µm, a 12–17 µm
+  // pixel pitch). Dimensionless, >= 0 (0: the subset is the uniform one).
+  double resolved_footprints = 2;
   // Threads for the per-vertex queries, >= 0 (0: hardware concurrency). The result does not
   // depend on it.
   int num_threads = 0;
@@ -91,6 +102,10 @@ struct TemperatureErrorStats {
   // the truth on the estimate, which the estimate's outliers shrank towards a gain of 0.)
   double affine_gain = kNaN, affine_offset_k = kNaN;
   double rmse_affine_k = kNaN, p95_abs_affine_k = kNaN;
+  // Over the resolved subset (TemperatureComparison::resolved) after the uniform subset's
+  // gain/offset map above, K; 0 compared and NaN without that map or a resolved subset.
+  int compared_resolved = 0;
+  double rmse_resolved_affine_k = kNaN, p95_abs_resolved_affine_k = kNaN;
   // Over compared vertices on low-emissivity surfaces (truth emissivity < kLowEmissivity:
   // bare metal, where most of the reading is reflection), K; NaN when none.
   int compared_low_emissivity = 0;
@@ -99,6 +114,9 @@ struct TemperatureErrorStats {
 
 // Surfaces below this normal emissivity are scored apart (TemperatureErrorStats).
 inline constexpr double kLowEmissivity = 0.5;
+// A vertex whose resolved ball (TemperatureErrorOptions::resolved_footprints) would be wider
+// than this is not resolved, m: its pixels average over more than an audit's spots.
+inline constexpr double kMaxResolvedRadiusM = 0.1;
 
 // truth_c and uniform depend on the geometry only, not on an estimate: TemperatureErrors
 // applies them to any estimate over the same model vertices.
@@ -116,6 +134,11 @@ struct TemperatureComparison {
   // vertex of its triangle: no blending across a patch border); NaN where truth_c is or the
   // truth has none.
   std::vector<double> truth_emissivity;
+  // Per model vertex, 1 where uniform and the true temperature also spans at most
+  // uniform_range_k within max(uniform_radius_m, resolved_footprints · footprint_m) of the
+  // closest truth point (TemperatureErrorOptions::resolved_footprints); empty when
+  // CompareTemperatures was given no footprints.
+  std::vector<uint8_t> resolved;
   TemperatureErrorStats stats;  // of the estimate given to CompareTemperatures
 };
 
@@ -129,15 +152,21 @@ struct TemperatureComparison {
 //   triangle the ball meets (the truth's vertices in the ball, its edges' crossings of the
 //   sphere, the in-plane extremes of the linear field on the ball's disc), so it does not
 //   depend on how coarsely the truth is tessellated away from its vertices;
+// - when footprint_m is given (per model vertex, m: a thermal pixel's size on the surface,
+//   PointTemperatures::footprint_m; NaN = unobserved, then not resolved), the resolved flag:
+//   the same range over the ball of max(uniform_radius_m, resolved_footprints · footprint)
+//   (TemperatureComparison::resolved);
 // then the stats of estimate_c (per model vertex, °C, NaN = unobserved).
-// Asserts options.Check() == "", estimate_c.size() == model_positions.size(), model face
-// indices in range and truth.temperature_c.size() == truth.vertices.size().
+// Asserts options.Check() == "", estimate_c.size() == model_positions.size(), footprint_m
+// empty or of that size, model face indices in range and truth.temperature_c.size() ==
+// truth.vertices.size().
 // Memory: the truth's triangles in a grid of max(max_distance_m, uniform_radius_m) cells.
 TemperatureComparison CompareTemperatures(const std::vector<Eigen::Vector3f>& model_positions,
                                           const std::vector<Eigen::Vector3i>& model_faces,
                                           const std::vector<double>& estimate_c,
                                           const TemperatureTruth& truth,
-                                          const TemperatureErrorOptions& options);
+                                          const TemperatureErrorOptions& options,
+                                          const std::vector<double>& footprint_m = {});
 
 // Stats of another estimate over the same vertices (reuses truth_c/uniform: cheap, for
 // comparing several methods on one model). Asserts estimate_c has one value per vertex.

@@ -81,6 +81,13 @@ TEST(TemperatureErrorOptions, CheckNamesTheField) {
   o = {};
   o.num_threads = -1;
   EXPECT_NE(o.Check().find("num_threads"), std::string::npos);
+  for (const double bad : {-0.5, 10.5, double{NAN}}) {
+    o = {};
+    o.resolved_footprints = bad;
+    EXPECT_NE(o.Check().find("resolved_footprints"), std::string::npos) << bad;
+  }
+  o.resolved_footprints = 0;
+  EXPECT_EQ(o.Check(), "");
 }
 
 TEST(TemperatureErrors, StatsAndInterpolatedPercentile) {
@@ -386,6 +393,81 @@ TEST(CompareTemperatures, HotDiscBorderIsOutsideTheUniformSubset) {
   // The border's errors are reported, but not in the uniform subset.
   EXPECT_LT(s.rmse_uniform_k, 1e-9);
   EXPECT_LT(s.p95_abs_uniform_k, 1e-9);
+}
+
+// A ledge: the plane z = 0 with the linear field, and 2 cm in front of it a 30 °C plate over
+// x >= 0 (the slot between a mounting plate and a cabinet wall, seen from afar). Model
+// vertices on the plane at x = −d, 1 mm above it: the plate's edge is √(d² + 2²) cm from
+// their closest truth point, never within the uniform subset's 1 cm, but within the
+// resolved subset's ball of 2 footprints where d < √(R² − 0.02²) (R = 2 · footprint): at a
+// 15 mm footprint (a 320-pixel, 56° camera at 4.4 m) R = 3 cm, d < 22.4 mm.
+TEST(CompareTemperatures, ResolvedSubsetDropsWhatAPixelMixesAcrossAStep) {
+  TemperatureTruth truth = PlaneTruth(0.05, Linear);
+  const GridMesh plate = MakeGrid(11, 21, 0, -0.5, 0.05, 0.02);
+  const int offset = static_cast<int>(truth.vertices.size());
+  for (const Vector3d& v : plate.vertices) {
+    truth.vertices.push_back(v);
+    truth.temperature_c.push_back(30);
+  }
+  for (const Vector3i& f : plate.faces) truth.faces.push_back(f + Vector3i::Constant(offset));
+  std::vector<Vector3f> positions;
+  std::vector<double> d_m;
+  for (int j = -4; j <= 4; ++j) {
+    for (int i = 1; i <= 90; ++i) {
+      d_m.push_back(0.005 * i);
+      positions.emplace_back(static_cast<float>(-d_m.back()), static_cast<float>(0.05 * j), 0.001f);
+    }
+  }
+  const size_t n = positions.size();
+  const double edge_d_m = std::sqrt(0.03 * 0.03 - 0.02 * 0.02);
+  // The estimate: exact, but 3 K warm where a 15 mm pixel mixes the plate in.
+  std::vector<double> estimate;
+  int mixed = 0;
+  for (size_t i = 0; i < n; ++i) {
+    estimate.push_back(Linear(positions[i].x(), positions[i].y()) + (d_m[i] < edge_d_m ? 3 : 0));
+    mixed += d_m[i] < edge_d_m;
+  }
+  ASSERT_EQ(mixed, 36);  // d = 5, 10, 15, 20 mm on 9 rows
+  TemperatureErrorOptions options;
+  options.edge_exclusion_m = 0;
+  // No footprints: no resolved subset.
+  const TemperatureComparison none = CompareTemperatures(positions, {}, estimate, truth, options);
+  EXPECT_TRUE(none.resolved.empty());
+  EXPECT_EQ(none.stats.compared_resolved, 0);
+  EXPECT_TRUE(std::isnan(none.stats.rmse_resolved_affine_k));
+
+  for (const int threads : {1, 3}) {
+    options.num_threads = threads;
+    const TemperatureComparison c =
+        CompareTemperatures(positions, {}, estimate, truth, options, std::vector<double>(n, 0.015));
+    ASSERT_EQ(c.resolved.size(), n);
+    for (size_t i = 0; i < n; ++i) {
+      ASSERT_EQ(c.uniform[i], 1) << "d " << d_m[i];  // the plate is >= 2 cm away
+      EXPECT_EQ(c.resolved[i], d_m[i] < edge_d_m ? 0 : 1) << "d " << d_m[i] << " threads " << threads;
+    }
+    // The camera map is fitted on the uniform subset, where the 3 K are trimmed (beyond
+    // max(5 σ, 1 K)): gain 1, offset 0; the uniform subset keeps their error, the resolved
+    // one has none.
+    const TemperatureErrorStats& s = c.stats;
+    EXPECT_NEAR(s.affine_gain, 1, 1e-9);
+    EXPECT_NEAR(s.affine_offset_k, 0, 1e-9);
+    EXPECT_NEAR(s.rmse_affine_k, 3 * std::sqrt(static_cast<double>(mixed) / n), 1e-9);
+    EXPECT_EQ(s.compared_resolved, static_cast<int>(n) - mixed);
+    EXPECT_LT(s.rmse_resolved_affine_k, 1e-9);
+    EXPECT_LT(s.p95_abs_resolved_affine_k, 1e-9);
+  }
+  // A footprint of 4 mm (R = max(1 cm, 8 mm)): every uniform vertex is resolved; unobserved
+  // (NaN) is not; one of 6 cm (R 12 cm) is wider than kMaxResolvedRadiusM: not resolved.
+  std::vector<double> footprints(n, 0.004);
+  footprints[0] = NAN;
+  footprints[n - 1] = 0.06;
+  const TemperatureComparison fine = CompareTemperatures(positions, {}, estimate, truth, options, footprints);
+  for (size_t i = 0; i < n; ++i) EXPECT_EQ(fine.resolved[i], (i == 0 || i == n - 1) ? 0 : 1) << i;
+  // resolved_footprints 0: the resolved subset is the uniform one.
+  options.resolved_footprints = 0;
+  const TemperatureComparison off =
+      CompareTemperatures(positions, {}, estimate, truth, options, std::vector<double>(n, 0.015));
+  for (size_t i = 0; i < n; ++i) EXPECT_EQ(off.resolved[i], off.uniform[i]) << i;
 }
 
 TEST(ReadTemperatureTruth, ReadsTheFieldsAndNamesTheFileWhenOneIsMissing) {

@@ -114,9 +114,18 @@ TEST(ReconstructThermalCli, EveryVertexHasTemperatureOrIsMarkedUnobserved) {
                           "\"occlusion_margin_m\": 0.1", "\"rays_occluded\"", "\"live_depth_frames\"", "\"occluded\"",
                           "\"live_depth\": true", "\"by_view_quality\"", "\"confidence_from\"",
                           "\"reflections\": {", "\"operator_apparent_c\": 32", "\"mirror_traced\"",
-                          "\"mirror_operator\"", "\"mean_reflect_ms\""}) {
+                          "\"mirror_operator\"", "\"mean_reflect_ms\"", "\"compared_resolved\"",
+                          "\"rmse_resolved_affine_k\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
+  // The resolved subset is the uniform one less what a thermal pixel mixes across steps:
+  // never larger, and on this small scan's 0.5–2 m views most of it.
+  const auto count = [&json](const std::string& key) {
+    const size_t at = json.find("\"" + key + "\": ");
+    return at == std::string::npos ? -1 : std::stoi(json.substr(at + key.size() + 4));
+  };
+  EXPECT_GT(count("compared_resolved"), count("compared_uniform") / 2);
+  EXPECT_LE(count("compared_resolved"), count("compared_uniform"));
 }
 
 // A 10 Hz depth stream (a slower sensor, or a capture that could not keep up): given poses
