@@ -203,6 +203,7 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
     r.relocalisations_rejected += f.conflict_rejections;
     r.prealign_rejected_by_depth += f.prealign_rejected_by_depth;
     r.lost += f.status == FrameStatus::kLost;
+    r.unconstrained_not_fused += f.status == FrameStatus::kUnconstrained;
     r.no_depth += f.status == FrameStatus::kNoDepth;
     r.posed += f.status == FrameStatus::kPosed;
     r.prepare_ms += f.prepare_ms;
@@ -315,9 +316,13 @@ ReconstructCommandResult ReconstructInto(const ReconstructCommandOptions& option
 std::string FormatReconstructSummary(const ReconstructCommandResult& r) {
   std::string out;
   out += core::StringPrintf("Frames     %d depth frames: %d fused (%d tracked, %d recovered, %d at given poses), "
-                            "%d lost, %d without depth, %d missing, %d without a given pose; %d coloured\n",
-                            r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost, r.no_depth,
-                            r.missing, r.unposed, r.coloured);
+                            "%d lost, %s%d without depth, %d missing, %d without a given pose; %d coloured\n",
+                            r.depth_frames, r.fused, r.tracked, r.recovered, r.posed, r.lost,
+                            r.unconstrained_not_fused > 0
+                                ? core::StringPrintf("%d unconstrained (tracked, not fused), ", r.unconstrained_not_fused)
+                                      .c_str()
+                                : "",
+                            r.no_depth, r.missing, r.unposed, r.coloured);
   if (r.integrated < r.fused) {
     out += core::StringPrintf("Fusion     depth of %d of the %d fused frames integrated (the others tracked between "
                               "raycasts: --integrate-between-raycasts false)\n",
@@ -537,7 +542,8 @@ int RunReconstruct(int argc, char** argv) {
                  "[0, 0.1] (0: off)")
       ->capture_default_str();
   app.add_option("--drop-unconstrained", r.drop_unconstrained,
-                 "report unconstrained frames (--basin-check) lost instead of fusing them: true or false")
+                 "do not fuse unconstrained frames (--basin-check; their poses still carry the motion on): true or "
+                 "false")
       ->capture_default_str();
   app.add_option("--relocalisation-max-conflict", r.relocalisation_max_conflict,
                  "a relocalised pose is accepted only when at most this fraction of the live depth stands in "

@@ -111,9 +111,10 @@ struct ReconstructCommandResult {
   // Tracked (or recovered) frames aligned on depth alone (FrameRecord::depth_alone).
   int tracked_depth_only = 0;
   // The basin check (ReconstructionOptions::basin_check_m): frames checked, those found
-  // unconstrained (fused, or lost with drop_unconstrained), and the median basin_m of the
-  // checked ones (NaN: none).
+  // unconstrained (fused, or with drop_unconstrained tracked but not fused), and the median
+  // basin_m of the checked ones (NaN: none).
   int basin_checked = 0, unconstrained = 0;
+  int unconstrained_not_fused = 0;  // FrameStatus::kUnconstrained: posed for the motion only
   double basin_check_m = 0;  // the options' (ReconstructionOptions)
   bool drop_unconstrained = false;
   double median_basin_m = std::numeric_limits<double>::quiet_NaN();

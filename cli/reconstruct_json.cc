@@ -121,7 +121,7 @@ std::string FrameJson(const FrameRecord& f, int depth_index) {
       .Number("valid_depth_fraction", f.valid_depth_fraction)
       .Number("model_conflict", f.model_conflict);
   if (f.status == FrameStatus::kTracked || f.status == FrameStatus::kRecovered ||
-      f.status == FrameStatus::kLost) {
+      f.status == FrameStatus::kLost || f.status == FrameStatus::kUnconstrained) {
     o.String("icp", reconstruct::IcpStatusName(f.icp_status))
         .Int("inliers", f.inliers)
         .Int("valid_points", f.valid_points)
@@ -199,6 +199,7 @@ std::string ReconstructReportJson(const ReconstructCommandOptions& options, cons
       .Int("tracked_depth_only", r.tracked_depth_only)
       .Int("basin_checked", r.basin_checked)
       .Int("unconstrained", r.unconstrained)
+      .Int("unconstrained_not_fused", r.unconstrained_not_fused)
       .Number("median_basin_m", r.median_basin_m)
       .Int("integrated", r.integrated)
       .Int("blocks_updated", r.blocks_updated)

@@ -67,9 +67,14 @@ void Reconstruction::SetInitialPose(const core::Rigid3d& world_from_depth) {
   initial_pose_ = world_from_depth;
 }
 
+void Reconstruction::AddMotion(double timestamp_s, const core::Rigid3d& world_from_depth) {
+  if (motion_.size() == 2) motion_.erase(motion_.begin());
+  motion_.push_back({timestamp_s, world_from_depth});
+}
+
 core::Rigid3d Reconstruction::PoseAt(double timestamp_s) const {
-  assert(!trajectory_.empty());
-  const auto& poses = trajectory_.poses();
+  assert(!motion_.empty());
+  const auto& poses = motion_;
   const core::TimedPose& b = poses.back();
   if (poses.size() < 2) return b.world_from_sensor;
   const core::TimedPose& a = poses[poses.size() - 2];
@@ -219,12 +224,12 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
   } else {
     // After posed frames the model view is stale (and without colour): raycast it at the
     // last pose first.
-    if (!model_ || !model_for_tracking_) UpdateModel(trajectory_.poses().back().world_from_sensor, record);
+    if (!model_ || !model_for_tracking_) UpdateModel(motion_.back().world_from_sensor, record);
     start = std::chrono::steady_clock::now();
     // Unobserved for longer than a hand-held rig keeps its motion (a covered lens gives frames
     // without depth, a stalled stream none): the rig may be anywhere, so relocalise as after
     // a loss instead of tracking from a prediction that no velocity supports.
-    if (frame.timestamp_s - trajectory_.poses().back().timestamp_s > kMaxExtrapolationS) lost_ = true;
+    if (frame.timestamp_s - motion_.back().timestamp_s > kMaxExtrapolationS) lost_ = true;
     const bool was_lost = lost_;
     // Tracking starts from the prediction, its rotation pre-aligned; when that moved it, the
     // colour is registered again with the motion from the last pose to that start (the
@@ -234,7 +239,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
       prediction = PrealignedPrediction(pyramid, frame.timestamp_s, record, &prealign_blurs);
       if (photometric && record.prealign_deg > kReregisterDeg) {
         prealign_blurs.clear();
-        const core::TimedPose last = trajectory_.poses().back();
+        const core::TimedPose last = motion_.back();
         const core::Rigid3d start_pose = prediction;
         register_colour([&](double t) {
           return core::Interpolate(last.world_from_sensor, start_pose,
@@ -244,6 +249,18 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
     }
     const bool ok = Track(pyramid, frame.timestamp_s, prediction, record, world_from_depth);
     record.track_ms = internal::MsSince(start);
+    if (!ok && record.icp_status == IcpStatus::kUnconstrained) {
+      // Not fused, but where ICP put it is the best guess of the motion (it is off only
+      // along the free direction): the next frame is predicted from it, and the model view
+      // follows it as a fused frame's would (UpdateModel: a cast, the volume unchanged).
+      record.status = FrameStatus::kUnconstrained;
+      lost_ = true;
+      AddMotion(frame.timestamp_s, world_from_depth);
+      if (!model_ || ViewTooFar(world_from_depth)) UpdateModel(world_from_depth, record);
+      record.blocks = volume_.NumBlocks();
+      frames_.push_back(record);
+      return frames_.back();
+    }
     if (!ok) {
       lost_ = true;
       record.status = FrameStatus::kLost;
@@ -255,6 +272,7 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
     record.status = was_lost ? FrameStatus::kRecovered : FrameStatus::kTracked;
   }
   trajectory_.Add(frame.timestamp_s, world_from_depth);
+  AddMotion(frame.timestamp_s, world_from_depth);
   record.fused = true;
   relocalisation_views_.clear();  // the volume changes now
   // After a frame tracked normally, the view may wait for raycast_interval fused frames;
@@ -303,9 +321,9 @@ const FrameRecord& Reconstruction::AddFrame(const FrameInput& frame, PreparedFra
 bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, const core::Rigid3d& start,
                            FrameRecord& record, core::Rigid3d& world_from_depth) {
   assert(model_.has_value());
-  const auto& poses = trajectory_.poses();
+  const auto& poses = motion_;
   const core::Rigid3d last = poses.back().world_from_sensor;
-  const double elapsed_s = timestamp_s - poses.back().timestamp_s;  // since the last fused frame
+  const double elapsed_s = timestamp_s - poses.back().timestamp_s;  // since the last posed frame
   const double w = options_.relocalisation_widening;
 
   // ICP runs to try, each a start pose and its options: tracking takes the first that
@@ -495,6 +513,7 @@ bool Reconstruction::Track(const DepthPyramid& pyramid, double timestamp_s, cons
     if (record.unconstrained && options_.drop_unconstrained) {
       ok = false;
       best.status = IcpStatus::kUnconstrained;
+      world_from_depth = best.world_from_camera;  // for the motion model only (AddFrame)
     }
   }
   record.icp_status = best.status;
@@ -538,7 +557,7 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
                                                    FrameRecord& record,
                                                    std::vector<PrealignBlur>* current_blurs) const {
   const core::Rigid3d prediction = PoseAt(timestamp_s);
-  const auto& poses = trajectory_.poses();
+  const auto& poses = motion_;
   const DepthLevel& level = PrealignLevel(pyramid);
   if (!options_.prealign.enabled() || options_.icp.photometric_weight <= 0 || !previous_image_ ||
       level.intensity.empty() || previous_image_timestamp_s_ != poses.back().timestamp_s ||
@@ -560,7 +579,7 @@ core::Rigid3d Reconstruction::PrealignedPrediction(const DepthPyramid& pyramid, 
 }
 
 core::Rigid3d Reconstruction::LeadPose() const {
-  const auto& poses = trajectory_.poses();
+  const auto& poses = motion_;
   const core::Rigid3d& current = poses.back().world_from_sensor;
   if (!(options_.reuse_lead > 0) || poses.size() < 2) return current;
   const core::Rigid3d& previous = poses[poses.size() - 2].world_from_sensor;
@@ -581,9 +600,10 @@ core::Rigid3d Reconstruction::LeadPose() const {
 
 bool Reconstruction::ViewTooFar(const core::Rigid3d& world_from_depth) const {
   assert(model_.has_value());
-  // The next frame's pose at constant velocity: this one's motion since the last fused
-  // frame, once more (no previous frame: no motion).
-  const auto& poses = trajectory_.poses();
+  // The next frame's pose at constant velocity: this one's motion since the last frame the
+  // motion model holds, once more (no previous frame: no motion). Called after this frame's
+  // pose was added to motion_.
+  const auto& poses = motion_;
   core::Rigid3d next = world_from_depth;
   if (poses.size() >= 2) {
     const core::Rigid3d& previous = poses[poses.size() - 2].world_from_sensor;

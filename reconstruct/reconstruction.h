@@ -155,11 +155,11 @@ struct ReconstructionOptions {
   // run per such frame; frames with the photometric term are not checked. m, in [0, 0.1]
   // (0: off).
   double basin_check_m = 0.01;
-  // Unconstrained frames (basin_check_m) are reported lost (IcpStatus::kUnconstrained) and
-  // not fused, as the issue asks of an ill-conditioned frame, rather than fused where ICP
-  // stopped: on the 10 s `equipment` sweep without colour 258 of 297 frames are then lost and
-  // the fused ones 128 mm off (274 mm, every frame fused, without); the `building` sweep,
-  // which depth alone tracks, has none (README, Tracking without colour).
+  // Unconstrained frames (basin_check_m) are not fused (FrameStatus::kUnconstrained,
+  // IcpStatus::kUnconstrained), as the issue asks of an ill-conditioned frame, rather than
+  // fused where ICP stopped; their poses still carry the motion model, so that one such frame
+  // of a fast walk does not lose the next ones (stop 59 reported them lost: at 10 Hz, 45 mm
+  // between frames, one drop lost every frame after it). README, Tracking without colour.
   bool drop_unconstrained = true;
   // A relocalised pose (a frame recovering from a loss, from the last or extrapolated pose
   // or a keyframe's) must agree with the model seen from there: the live depth standing in
@@ -230,6 +230,10 @@ enum class FrameStatus {
   kLost,         // ICP failed; not fused, no pose
   kNoDepth,      // too few valid depth pixels; not used, no pose
   kPosed,        // fused at the pose it came with (FrameInput::world_from_depth), not tracked
+  // ICP converged, but the depth leaves a direction free (the basin check,
+  // ReconstructionOptions::drop_unconstrained): not fused and not in the trajectory; its pose
+  // carries the motion on to the next frame's prediction, as a tracked frame's does
+  kUnconstrained,
 };
 std::string FrameStatusName(FrameStatus status);  // "initialised", "tracked", ...
 
@@ -374,10 +378,12 @@ class Reconstruction {
   // The model view at world_from_depth as ICP takes it (levels finer than raycast_level
   // empty), with colour when for_tracking and the photometric term is on.
   ModelPyramid CastModelView(const core::Rigid3d& world_from_depth, bool for_tracking) const;
-  // world_from_depth at time t from the two last fused poses (interpolated between them, or
-  // extrapolated at constant velocity beyond the last); the last pose when they lie more
-  // than half a second apart (a loss between them: no velocity to go by).
+  // world_from_depth at time t from the two last poses of motion_ (interpolated between
+  // them, or extrapolated at constant velocity beyond the last); the last pose when they lie
+  // more than half a second apart (a loss between them: no velocity to go by).
   core::Rigid3d PoseAt(double timestamp_s) const;
+  // Appends a frame's pose to motion_ (keeping the last two).
+  void AddMotion(double timestamp_s, const core::Rigid3d& world_from_depth);
 
   core::Rig rig_;
   ReconstructionOptions options_;
@@ -389,6 +395,9 @@ class Reconstruction {
   TsdfVolume volume_;
   bool volume_released_ = false;  // ReleaseVolume
   core::Trajectory trajectory_;
+  // The last two poses the motion model goes by: fused frames' and unconstrained ones'
+  // (FrameStatus::kUnconstrained), oldest first.
+  std::vector<core::TimedPose> motion_;
   std::vector<FrameRecord> frames_;
   std::optional<core::Rigid3d> initial_pose_;
   std::optional<ModelPyramid> model_;  // raycast at a recent fused pose

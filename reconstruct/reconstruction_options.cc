@@ -35,6 +35,7 @@ std::string FrameStatusName(FrameStatus status) {
     case FrameStatus::kTracked: return "tracked";
     case FrameStatus::kRecovered: return "recovered";
     case FrameStatus::kLost: return "lost";
+    case FrameStatus::kUnconstrained: return "unconstrained";
     case FrameStatus::kNoDepth: return "no_depth";
     case FrameStatus::kPosed: return "posed";
   }

@@ -334,7 +334,24 @@ TEST(Reconstruction, ASlowStreamStartedMidWalkTracksFromItsSecondFrame) {
   options.start_at_groundtruth = true;
   ReconstructScan(scan, reconstruction, options);
   ASSERT_EQ(reconstruction.frames().size(), 25u);
-  for (const FrameRecord& f : reconstruction.frames()) EXPECT_TRUE(f.fused) << "frame " << f.index;
+  // Every frame fused, but for those the basin check finds unconstrained (depth alone along
+  // the cabinet front; measured: the second frame, against a model of one frame), which are
+  // not fused but carry the motion on: the next frame recovers from there. Stop 59 reported
+  // such a frame lost, and at 45 mm per frame the walk was then lost to its end.
+  int unconstrained = 0;
+  for (const FrameRecord& f : reconstruction.frames()) {
+    if (f.status == FrameStatus::kUnconstrained) {
+      ++unconstrained;
+      EXPECT_FALSE(f.fused) << "frame " << f.index;
+      ASSERT_LT(f.index + 1, 25);
+      const FrameStatus next = reconstruction.frames()[f.index + 1].status;
+      EXPECT_TRUE(next == FrameStatus::kRecovered || next == FrameStatus::kUnconstrained) << "frame " << f.index + 1;
+      continue;
+    }
+    EXPECT_TRUE(f.fused) << "frame " << f.index;
+  }
+  EXPECT_LE(unconstrained, 2);
+  EXPECT_GE(static_cast<int>(reconstruction.trajectory().poses().size()), 23);
   // The second frame on the widened gate, from the first pose (there is no velocity yet).
   EXPECT_TRUE(reconstruction.frames()[1].widened_gate);
   EXPECT_TRUE(reconstruction.frames()[1].from_last_pose);
@@ -352,22 +369,33 @@ TEST(Reconstruction, AHiddenLensRelocalisesWhereTheWalkCarriedTheRig) {
   reconstruction.SetInitialPose(*scan.groundtruth()->At(scan.Timestamp(Stream::kDepth, 0)));
   const int n = scan.NumFrames(Stream::kDepth);
   ASSERT_EQ(n, 25);
+  int unconstrained = 0;
+  bool after_unconstrained = false;
   for (int i = 0; i < n; ++i) {
     ASSERT_TRUE(scan.FrameExists(Stream::kDepth, i));
     FrameInput frame = LoadScanFrame(scan, i, false);
     const bool hidden = i >= 15 && i < 18;
     if (hidden) frame.depth_m.setTo(0.5f);
     const FrameRecord& record = reconstruction.AddFrame(frame);
-    EXPECT_EQ(record.status, hidden     ? FrameStatus::kLost
-                             : i == 18  ? FrameStatus::kRecovered
-                             : i == 0   ? FrameStatus::kInitialised
-                                        : FrameStatus::kTracked)
+    // A frame the basin check finds unconstrained (not fused; the next one recovers from its
+    // pose) may come anywhere in the walk along the cabinet front (measured: the second).
+    if (!hidden && record.status == FrameStatus::kUnconstrained) {
+      ++unconstrained;
+      after_unconstrained = true;
+      continue;
+    }
+    EXPECT_EQ(record.status, hidden                           ? FrameStatus::kLost
+                             : i == 18 || after_unconstrained ? FrameStatus::kRecovered
+                             : i == 0                         ? FrameStatus::kInitialised
+                                                              : FrameStatus::kTracked)
         << "frame " << i;
+    after_unconstrained = false;
     if (i == 18) {
       EXPECT_FALSE(record.from_last_pose);  // the extrapolation won
       EXPECT_TRUE(record.widened_gate);
     }
   }
+  EXPECT_LE(unconstrained, 2);
   // As the run without the hand (at most 24 mm off after the loss).
   ExpectOnTheTruth(reconstruction, scan, 0.035);
 }

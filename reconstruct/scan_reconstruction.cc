@@ -173,6 +173,9 @@ ScanReconstruction ReconstructScan(const core::Scan& scan, Reconstruction& recon
     if (record.status == FrameStatus::kLost) {
       out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking lost (%s), not fused",
                                                 i, t, IcpStatusName(record.icp_status).c_str()));
+    } else if (record.status == FrameStatus::kUnconstrained) {
+      out.warnings.push_back(core::StringPrintf(
+          "depth frame %d at %.6f s: unconstrained (the depth leaves a direction free), tracked but not fused", i, t));
     } else if (record.status == FrameStatus::kRecovered) {
       out.warnings.push_back(core::StringPrintf("depth frame %d at %.6f s: tracking recovered", i, t));
     } else if (record.status == FrameStatus::kNoDepth) {

@@ -580,10 +580,14 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
 
   // 1. Allocation. Every valid pixel's viewing ray between depth − truncation and depth +
   // truncation is walked through the block grid. Pixels are sampled every `stride` in x and
-  // y, with the stride chosen so that neighbouring samples land less than a quarter block
-  // apart at the farthest depth of the frame: a surface patch a quarter block wide is then
-  // always hit, and what the sampling misses is a sliver of a block corner whose voxels the
-  // next frames (a hand-held camera moves) pick up.
+  // y, with the stride chosen so that neighbouring samples land at most half a block apart at
+  // the farthest depth of the frame: a surface patch half a block wide is then always hit
+  // (`TsdfIntegrate.PatchesHalfABlockWideAreAlwaysAllocated`), and what the sampling misses
+  // is a sliver along a block's side whose voxels the next frames (a hand-held camera moves)
+  // pick up. A quarter block (until stop 60) walked every pixel of a frame that reaches 4 m
+  // with 5 mm voxels — 15 of its 117 ms of integration — for the same model: on the 10 s
+  // sweeps ATE 1.51 / 1.66 → 1.61 / 1.65 mm, shape 1.70 / 1.93 → 1.69 / 1.93 mm, vertices
+  // +0.7 / −1.0 %.
   float far_m = 0;
   for (int y = 0; y < height; ++y) {
     const float* row = depth_m.ptr<float>(y);
@@ -594,7 +598,7 @@ IntegrateStats TsdfVolume::Integrate(const cv::Mat& depth_m, const PinholeCamera
   }
   if (far_m == 0) return stats;  // nothing to fuse: no block allocated or touched
   const float pixel_m = far_m / std::min(camera.fx, camera.fy);  // footprint of a pixel
-  const int stride = std::clamp(static_cast<int>(0.25f * block_m / pixel_m), 1, 8);
+  const int stride = std::clamp(static_cast<int>(0.5f * block_m / pixel_m), 1, 8);
 
   const Eigen::Matrix3f rotation = world_from_camera.rotation.toRotationMatrix().cast<float>();
   const Eigen::Vector3f origin_m = world_from_camera.translation.cast<float>();

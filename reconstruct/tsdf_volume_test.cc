@@ -473,6 +473,39 @@ TEST(TsdfIntegrate, FrontalPlaneIsExact) {
   EXPECT_LE(static_cast<int>(volume.NumBlocks()), outer);
 }
 
+// Allocation samples the frame's pixels at a spacing of up to half a block at its farthest
+// depth: a surface patch half a block wide is fused wherever it lies against the pixel grid
+// (the only valid depth of the frame: a 4 cm square 1 m away, 4.8 px of this camera, where
+// the samples are 4 px apart), and a narrower one may fall between the samples.
+TEST(TsdfIntegrate, PatchesHalfABlockWideAreAlwaysAllocated) {
+  const PinholeCamera camera = SmallCamera();
+  const core::Rigid3d pose = core::Rigid3d::Identity();
+  const auto fused_voxels = [&](double side_m, double u, double v) {
+    cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
+    const double fx = camera.fx, fy = camera.fy, cx = camera.cx, cy = camera.cy;
+    const double x0 = (u - cx) / fx, y0 = (v - cy) / fy;  // the centre's ray at z = 1 m
+    for (int y = 0; y < camera.height; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const double px = (x - cx) / fx, py = (y - cy) / fy;
+        if (std::abs(px - x0) <= 0.5 * side_m && std::abs(py - y0) <= 0.5 * side_m) depth.at<float>(y, x) = 1.0f;
+      }
+    }
+    TsdfVolume volume(SmallOptions());
+    return volume.Integrate(depth, camera, pose).voxels_updated;
+  };
+  const double half_block_m = 0.5 * kBlockSide * SmallOptions().voxel_size_m;
+  int missed_narrow = 0;
+  for (int dy = 0; dy < 8; ++dy) {
+    for (int dx = 0; dx < 8; ++dx) {
+      const double u = 70 + dx + 0.25, v = 50 + dy + 0.25;
+      EXPECT_GT(fused_voxels(half_block_m, u, v), 0) << "patch at " << u << ", " << v;
+      missed_narrow += fused_voxels(0.3 * half_block_m, u, v) == 0;
+    }
+  }
+  // 1.4 px wide: the samples, 4 px apart, miss it somewhere.
+  EXPECT_GT(missed_narrow, 0);
+}
+
 TEST(TsdfIntegrate, WeightsCountFramesAndCap) {
   const PinholeCamera camera = SmallCamera();
   const core::Rigid3d pose = core::Rigid3d::Identity();
