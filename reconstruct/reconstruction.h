@@ -157,9 +157,10 @@ struct ReconstructionOptions {
   double basin_check_m = 0.01;
   // Unconstrained frames (basin_check_m) are not fused (FrameStatus::kUnconstrained,
   // IcpStatus::kUnconstrained), as the issue asks of an ill-conditioned frame, rather than
-  // fused where ICP stopped; their poses still carry the motion model, so that one such frame
-  // of a fast walk does not lose the next ones (stop 59 reported them lost: at 10 Hz, 45 mm
-  // between frames, one drop lost every frame after it). README, Tracking without colour.
+  // fused where ICP stopped; their poses still carry the motion model, the next frame aligned
+  // as after a loss, so that one such frame of a fast walk does not lose the next ones (stop
+  // 59 reported them lost: at 10 Hz, 45 mm between frames, one drop lost every frame after
+  // it). README, Tracking without colour.
   bool drop_unconstrained = true;
   // A relocalised pose (a frame recovering from a loss, from the last or extrapolated pose
   // or a keyframe's) must agree with the model seen from there: the live depth standing in
@@ -232,7 +233,7 @@ enum class FrameStatus {
   kPosed,        // fused at the pose it came with (FrameInput::world_from_depth), not tracked
   // ICP converged, but the depth leaves a direction free (the basin check,
   // ReconstructionOptions::drop_unconstrained): not fused and not in the trajectory; its pose
-  // carries the motion on to the next frame's prediction, as a tracked frame's does
+  // carries the motion on to the next frame's prediction, which is aligned as after a loss
   kUnconstrained,
 };
 std::string FrameStatusName(FrameStatus status);  // "initialised", "tracked", ...
