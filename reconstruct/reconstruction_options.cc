@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "reconstruct/option_check.h"
 
@@ -73,23 +74,14 @@ std::string ReconstructionOptions::Check() const {
     return Fail("icp.iterations", 0, "> 0 at raycast_level or a coarser level");
   }
   if (raycast_interval < 1 || raycast_interval > 8) return Fail("raycast_interval", raycast_interval, "in [1, 8]");
-  if (!(reuse_max_correction_m > 0) || !std::isfinite(reuse_max_correction_m)) {
-    return Fail("reuse_max_correction_m", reuse_max_correction_m, "> 0 and finite");
-  }
-  if (!(reuse_max_correction_deg > 0) || !std::isfinite(reuse_max_correction_deg)) {
-    return Fail("reuse_max_correction_deg", reuse_max_correction_deg, "> 0 and finite");
-  }
-  if (!(reuse_max_motion_m > 0) || !std::isfinite(reuse_max_motion_m)) {
-    return Fail("reuse_max_motion_m", reuse_max_motion_m, "> 0 and finite");
-  }
-  if (!(reuse_max_motion_deg > 0) || !std::isfinite(reuse_max_motion_deg)) {
-    return Fail("reuse_max_motion_deg", reuse_max_motion_deg, "> 0 and finite");
-  }
-  if (!(integrate_max_motion_m > 0) || !std::isfinite(integrate_max_motion_m)) {
-    return Fail("integrate_max_motion_m", integrate_max_motion_m, "> 0 and finite");
-  }
-  if (!(integrate_max_motion_deg > 0) || !std::isfinite(integrate_max_motion_deg)) {
-    return Fail("integrate_max_motion_deg", integrate_max_motion_deg, "> 0 and finite");
+  // The reuse and integration limits: each > 0 and finite.
+  for (const auto& [name, value] : {std::pair<const char*, double>{"reuse_max_correction_m", reuse_max_correction_m},
+                                    {"reuse_max_correction_deg", reuse_max_correction_deg},
+                                    {"reuse_max_motion_m", reuse_max_motion_m},
+                                    {"reuse_max_motion_deg", reuse_max_motion_deg},
+                                    {"integrate_max_motion_m", integrate_max_motion_m},
+                                    {"integrate_max_motion_deg", integrate_max_motion_deg}}) {
+    if (!(value > 0) || !std::isfinite(value)) return Fail(name, value, "> 0 and finite");
   }
   if (!(reuse_lead >= 0 && reuse_lead <= 1)) return Fail("reuse_lead", reuse_lead, "in [0, 1]");
   const ReconstructionOptions e = internal::EffectiveOptions(*this);
