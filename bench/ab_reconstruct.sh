@@ -7,6 +7,12 @@
 # frames/s and of the cast time, and their ratios A / B.
 #   bench/ab_reconstruct.sh --a "ARGS" --b "ARGS" [--build DIR] [--out DIR] [--rounds N]
 #                           --scans "SCAN ..." [--rig RIG] [--args "ARGS FOR BOTH"]
+#                           [--a-bin HEATWAVE] [--b-bin HEATWAVE]
+# --a-bin / --b-bin run that side with another build's heatwave (copied first, so a rebuild
+# during the run does not change it): two builds side by side, e.g. stop 60's allocation
+# against stop 59's build (README, Allocating from pixels half a block apart):
+#   bench/ab_reconstruct.sh --scans "EQ10 BD10" --rig ORACLE --args --no-thermal \
+#     --a "" --b "" --a-bin STOP59/heatwave
 # E.g. the integration cadence (ReconstructionOptions::integrate_max_motion_m / _deg) on the
 # 10 s full-size renders with their true depth field:
 #   bench/ab_reconstruct.sh --scans "EQ10 BD10" --rig ORACLE --args --no-thermal \
@@ -16,20 +22,33 @@
 set -euo pipefail
 out=build/bench-results/ab-reconstruct
 extra=""
-usage=2,16
+usage=2,21
 a_args=""
 b_args=""
+a_bin=""
+b_bin=""
 rest=()
 while [ $# -gt 0 ]; do  # --a / --b here, the shared options in alternate_common.sh
   case "$1" in
     --a) a_args=$2; shift 2 ;;
     --b) b_args=$2; shift 2 ;;
+    --a-bin) a_bin=$2; shift 2 ;;
+    --b-bin) b_bin=$2; shift 2 ;;
     *) rest+=("$1"); shift ;;
   esac
 done
 set -- "${rest[@]}"
 # shellcheck source=bench/alternate_common.sh
 source "$(dirname "$0")/alternate_common.sh"
+declare -A binary=([a]="$heatwave" [b]="$heatwave")
+for mode in a b; do
+  bin=$a_bin
+  [ $mode = b ] && bin=$b_bin
+  [ -z "$bin" ] && continue
+  [ -x "$bin" ] || { echo "--$mode-bin $bin: not an executable" >&2; exit 2; }
+  cp "$bin" "$out/heatwave-$mode"
+  binary[$mode]=$out/heatwave-$mode
+done
 # reconstruct.json → "fps integrated casts cast_ms thermal_cast_ms ate_mm surface_mm shape_mm"
 figures() {
   python3 - "$1" <<'PY'
@@ -56,7 +75,7 @@ for scan in $scans; do
       [ $mode = b ] && args=$b_args
       run="$out/$name-$mode"
       # shellcheck disable=SC2086
-      "$heatwave" reconstruct "$scan" --rig "$scan_rig" --out "$run" --overwrite --start-at-groundtruth $extra $args \
+      "${binary[$mode]}" reconstruct "$scan" --rig "$scan_rig" --out "$run" --overwrite --start-at-groundtruth $extra $args \
         > /dev/null 2>&1
       read -r f n c cms tms ate surface shape <<< "$(figures "$run/reconstruct.json")"
       printf "%-10s round %d %s %6s frames/s  %3s integrated  %3s casts %6s ms  thermal cast %6s ms  ATE %s mm  surface %s mm  shape %s mm\n" \
